@@ -1,0 +1,260 @@
+"""Robot arms: a Pinocchio model plus its collision and visual geometry (DESIGN §1–2).
+
+``Arm`` loads any fixed-base URDF arm whose joints are revolute or prismatic
+(one coordinate each, so ``nq == nv``), or a robot from example-robot-data with
+its gripper joints locked. Its rigid-body terms follow paper 000 eq. (1),
+``D(q) q̈ + C(q, q̇) q̇ + G(q) = τ``:
+
+* ``D(q)`` — ``pin.crba`` (joint-space inertia, kg·m² / kg),
+* ``C(q, q̇)`` — ``pin.computeCoriolisMatrix`` (Christoffel-consistent, ``Ḋ − 2C`` skew),
+* ``G(q)`` — ``pin.computeGeneralizedGravity`` (N·m / N).
+
+The model's ``armature`` is kept at zero here: motor rotor inertia belongs to the
+drive (:class:`mpd_pin.Drive`), never to the arm, so it is not counted twice.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+__all__ = ["Arm", "GRIPPER_KEYWORDS"]
+
+#: Joints whose name contains one of these are locked by ``Arm.from_example_robot_data``.
+GRIPPER_KEYWORDS = ("finger", "gripper", "hand_joint", "jaw")
+
+
+def _read_urdf_text(path_or_xml: str | os.PathLike) -> tuple[str, Path | None]:
+    """Return (xml text, file path or None) for a path or an XML string."""
+    if isinstance(path_or_xml, os.PathLike) or (
+        isinstance(path_or_xml, str) and not path_or_xml.lstrip().startswith("<")
+    ):
+        path = Path(path_or_xml)
+        if not path.is_file():
+            raise ValueError(f"URDF file not found: {str(path)!r} (pass a path or an XML string)")
+        return path.read_text(encoding="utf-8"), path
+    if isinstance(path_or_xml, bytes):
+        return path_or_xml.decode("utf-8"), None
+    if not isinstance(path_or_xml, str):
+        raise ValueError(f"expected a URDF path or XML string, got {type(path_or_xml).__name__}")
+    return path_or_xml, None
+
+
+def _validate_urdf(xml: str, where: str) -> None:
+    """Parse the URDF with yourdfpy so malformed files fail with one clear message."""
+    import yourdfpy
+    from lxml import etree
+
+    try:
+        root = etree.fromstring(xml.encode("utf-8"))
+    except etree.XMLSyntaxError as exc:
+        raise ValueError(f"malformed URDF XML in {where}: {exc}") from None
+    if root.tag != "robot":
+        raise ValueError(f"invalid URDF in {where}: root element is <{root.tag}>, not <robot>")
+    try:
+        urdf = yourdfpy.URDF.load(
+            io.BytesIO(xml.encode("utf-8")),
+            build_scene_graph=False,
+            load_meshes=False,
+            load_collision_meshes=False,
+        )
+    except Exception as exc:  # yourdfpy raises assorted errors on invalid structure
+        raise ValueError(f"invalid URDF in {where}: {exc}") from None
+    if urdf.robot is None or not urdf.robot.links:
+        raise ValueError(f"invalid URDF in {where}: no <robot> with links")
+    movable = [j for j in urdf.robot.joints if j.type in ("revolute", "prismatic", "continuous")]
+    if not movable:
+        raise ValueError(f"URDF in {where} has no movable joint (revolute or prismatic)")
+
+
+@dataclass(eq=False)
+class Arm:
+    """A fixed-base arm: Pinocchio model, collision and visual geometry, joint limits.
+
+    Build with :meth:`from_urdf` or :meth:`from_example_robot_data`. Algorithms
+    take preallocated ``data`` (one per Arm) in Pinocchio's style.
+    """
+
+    model: pin.Model
+    collision_model: pin.GeometryModel
+    visual_model: pin.GeometryModel
+    name: str = "arm"
+    srdf_path: str | None = None
+    urdf_xml: str | None = None
+    q_reference: np.ndarray | None = None
+    data: pin.Data = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        m = self.model
+        if m.nv == 0:
+            raise ValueError(f"arm {self.name!r} has no movable joint")
+        if m.nq != m.nv:
+            bad = [m.names[j] for j in range(1, m.njoints) if m.joints[j].nq != m.joints[j].nv]
+            raise ValueError(
+                f"arm {self.name!r}: joints {bad} have nq != nv (continuous, spherical or "
+                "floating joints); mpd_pin needs revolute/prismatic joints with limits"
+            )
+        if np.any(self.model.armature != 0.0):
+            raise ValueError(
+                "the arm model must have zero armature; rotor inertia goes in DCMotor.J"
+            )
+        self.data = m.createData()
+        if self.q_reference is None:
+            self.q_reference = pin.neutral(m)
+
+    # ------------------------------------------------------------------ loading
+    @classmethod
+    def from_urdf(
+        cls,
+        path_or_xml: str | os.PathLike,
+        *,
+        package_dirs: Sequence[str] | None = None,
+        srdf_path: str | None = None,
+        name: str | None = None,
+    ) -> Arm:
+        """Load an arm from a URDF file path or an XML string.
+
+        ``package_dirs`` are searched for ``package://`` meshes; ``srdf_path``, if
+        given, lists the self-collision pairs to disable.
+        """
+        xml, path = _read_urdf_text(path_or_xml)
+        where = str(path) if path is not None else "the URDF string"
+        _validate_urdf(xml, where)
+        dirs = list(package_dirs or [])
+        if path is not None:
+            dirs.append(str(path.parent))
+        try:
+            model = pin.buildModelFromXML(xml)
+            collision = pin.buildGeomFromUrdfString(
+                model, xml, pin.GeometryType.COLLISION, None, dirs
+            )
+            visual = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.VISUAL, None, dirs)
+        except (RuntimeError, ValueError) as exc:
+            raise ValueError(f"Pinocchio could not load {where}: {exc}") from None
+        return cls(
+            model=model,
+            collision_model=collision,
+            visual_model=visual,
+            name=name or model.name or "arm",
+            srdf_path=srdf_path,
+            urdf_xml=xml,
+        )
+
+    @classmethod
+    def from_example_robot_data(cls, name: str, *, lock: Sequence[str] | None = None) -> Arm:
+        """Load ``name`` from example-robot-data (no download: the data ship with the package).
+
+        Joints whose names contain a :data:`GRIPPER_KEYWORDS` entry are locked at
+        the robot's reference posture (e.g. Panda → 7 joints), plus any in ``lock``.
+        """
+        from example_robot_data import robots_loader
+
+        if name not in robots_loader.ROBOTS:
+            known = ", ".join(sorted(robots_loader.ROBOTS))
+            raise ValueError(f"unknown example-robot-data robot {name!r}; known: {known}")
+        loader = robots_loader.loader(name)
+        robot = loader.robot
+        full = robot.model
+        if full.joints[1].shortname() == "JointModelFreeFlyer":
+            raise ValueError(f"example-robot-data robot {name!r} is floating-base, not an arm")
+        names = list(full.names)
+        to_lock = [
+            j
+            for j in range(1, full.njoints)
+            if any(k in names[j].lower() for k in GRIPPER_KEYWORDS) or (lock and names[j] in lock)
+        ]
+        if lock:
+            missing = set(lock) - set(names)
+            if missing:
+                raise ValueError(f"cannot lock unknown joints {sorted(missing)} of {name!r}")
+        q0 = np.asarray(robot.q0, dtype=float)
+        if to_lock:
+            model, (collision, visual) = pin.buildReducedModel(
+                full, [robot.collision_model, robot.visual_model], to_lock, q0
+            )
+            keep = [names[j] for j in range(1, full.njoints) if j not in to_lock]
+            q_ref = np.array([q0[full.joints[full.getJointId(n)].idx_q] for n in keep])
+        else:
+            model, collision, visual = full, robot.collision_model, robot.visual_model
+            q_ref = q0
+        model.name = name
+        return cls(
+            model=model,
+            collision_model=collision,
+            visual_model=visual,
+            name=name,
+            srdf_path=getattr(loader, "srdf_path", None),
+            q_reference=q_ref,
+        )
+
+    # --------------------------------------------------------------- properties
+    @property
+    def nq(self) -> int:
+        """Number of joint coordinates (= number of velocities)."""
+        return self.model.nq
+
+    @property
+    def lower_limits(self) -> np.ndarray:
+        """Lower joint position limits (rad or m)."""
+        return self.model.lowerPositionLimit.copy()
+
+    @property
+    def upper_limits(self) -> np.ndarray:
+        """Upper joint position limits (rad or m)."""
+        return self.model.upperPositionLimit.copy()
+
+    @property
+    def joint_names(self) -> list[str]:
+        """Names of the movable joints, in coordinate order."""
+        return list(self.model.names)[1:]
+
+    # --------------------------------------------------------------- checking
+    def check_configuration(self, q, what: str = "q") -> np.ndarray:
+        """Return ``q`` as a float array of length nq, or raise ValueError (NaN, wrong length)."""
+        arr = np.asarray(q, dtype=float)
+        if arr.shape != (self.nq,):
+            raise ValueError(f"{what} must have {self.nq} joint values, got shape {arr.shape}")
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"{what} contains NaN or infinity: {arr.tolist()}")
+        return arr
+
+    def within_limits(self, q, tol: float = 1e-9) -> bool:
+        """True if ``q`` lies inside the joint limits (with tolerance ``tol``)."""
+        q = self.check_configuration(q)
+        return bool(
+            np.all(q >= self.model.lowerPositionLimit - tol)
+            and np.all(q <= self.model.upperPositionLimit + tol)
+        )
+
+    # ------------------------------------------------------ rigid-body terms
+    def mass_matrix(self, q) -> np.ndarray:
+        """D(q), the joint-space inertia matrix (paper 000 eq. 1), via ``pin.crba``."""
+        q = self.check_configuration(q)
+        M = pin.crba(self.model, self.data, q)
+        return np.triu(M) + np.triu(M, 1).T
+
+    def coriolis_matrix(self, q, v) -> np.ndarray:
+        """C(q, q̇) with C q̇ the Coriolis/centrifugal torques (N·m), Christoffel-consistent."""
+        q = self.check_configuration(q)
+        v = self.check_configuration(v, "v")
+        return pin.computeCoriolisMatrix(self.model, self.data, q, v).copy()
+
+    def gravity(self, q) -> np.ndarray:
+        """G(q), the generalized gravity torques (N·m) for gravity along −z."""
+        q = self.check_configuration(q)
+        return pin.computeGeneralizedGravity(self.model, self.data, q).copy()
+
+    def frame_position(self, q, frame: str) -> np.ndarray:
+        """World position (m) of a named frame at configuration ``q``."""
+        q = self.check_configuration(q)
+        if not self.model.existFrame(frame):
+            raise ValueError(f"arm {self.name!r} has no frame {frame!r}")
+        fid = self.model.getFrameId(frame)
+        pin.framesForwardKinematics(self.model, self.data, q)
+        return self.data.oMf[fid].translation.copy()

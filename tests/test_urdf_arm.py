@@ -1,0 +1,146 @@
+"""Generated planar URDFs and the Arm loader (DESIGN §1–2)."""
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yourdfpy
+
+import mpd_pin as mp
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.mark.parametrize("name", sorted(mp.BUILTIN_ARMS))
+def test_committed_urdf_equals_regenerated(name):
+    committed = (ROOT / "robots" / f"{name}.urdf").read_text(encoding="utf-8")
+    assert committed == mp.builtin_arm_urdf(name)
+
+
+def test_generation_script_reproduces_files(tmp_path):
+    """The script writes exactly the committed files (run on a copy of the tree layout)."""
+    script = ROOT / "scripts" / "generate_robots.py"
+    (tmp_path / "scripts").mkdir()
+    (tmp_path / "scripts" / "generate_robots.py").write_text(script.read_text())
+    subprocess.run([sys.executable, str(tmp_path / "scripts" / "generate_robots.py")], check=True,
+                   capture_output=True)
+    for name in mp.BUILTIN_ARMS:
+        assert (tmp_path / "robots" / f"{name}.urdf").read_text() == (
+            ROOT / "robots" / f"{name}.urdf"
+        ).read_text()
+
+
+def test_planar_urdf_follows_conventions():
+    lengths, masses, r = [0.5, 0.4, 0.3], [2.0, 1.5, 1.0], 0.04
+    urdf = yourdfpy.URDF.load(
+        __import__("io").BytesIO(mp.planar_arm_urdf(lengths, masses, radius=r).encode()),
+        build_scene_graph=False, load_meshes=False,
+    )
+    joints = {j.name: j for j in urdf.robot.joints}
+    links = {lk.name: lk for lk in urdf.robot.links}
+    for k, (l, m) in enumerate(zip(lengths, masses, strict=True), start=1):
+        j = joints[f"joint{k}"]
+        assert j.type == "revolute"
+        np.testing.assert_array_equal(j.axis, [0.0, -1.0, 0.0])
+        np.testing.assert_allclose(j.origin[:3, 3], [0.0 if k == 1 else lengths[k - 2], 0, 0])
+        assert j.limit.lower == -math.pi and j.limit.upper == math.pi
+        inertial = links[f"link{k}"].inertial
+        assert inertial.mass == m
+        np.testing.assert_allclose(inertial.origin[:3, 3], [l / 2, 0, 0])
+        # Solid cylinder about its centre of mass, axis along x.
+        np.testing.assert_allclose(
+            inertial.inertia, np.diag([m * r * r / 2, m * (3 * r * r + l * l) / 12,
+                                       m * (3 * r * r + l * l) / 12])
+        )
+        col = links[f"link{k}"].collisions[0]
+        assert col.geometry.cylinder.radius == r and col.geometry.cylinder.length == l
+        # Rotated so the cylinder's z axis lies along the link's x axis, centred at l/2.
+        np.testing.assert_allclose(col.origin[:3, 2], [1.0, 0.0, 0.0], atol=1e-15)
+        np.testing.assert_allclose(col.origin[:3, 3], [l / 2, 0, 0])
+    np.testing.assert_allclose(joints["ee_joint"].origin[:3, 3], [lengths[-1], 0, 0])
+
+
+def test_end_effector_formula_and_gravity_nonzero():
+    arm = mp.builtin_arm("planar_3link")
+    lengths = mp.BUILTIN_ARMS["planar_3link"].lengths
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        q = rng.uniform(-math.pi, math.pi, 3)
+        c = np.cumsum(q)
+        expect = [sum(l * math.cos(a) for l, a in zip(lengths, c, strict=True)), 0.0,
+                  sum(l * math.sin(a) for l, a in zip(lengths, c, strict=True))]
+        np.testing.assert_allclose(arm.frame_position(q, "ee"), expect, atol=1e-14)
+    # Horizontal arm: the first joint holds every link's weight, m g × lever.
+    specs = mp.BUILTIN_ARMS["planar_3link"]
+    l, m = specs.lengths, specs.masses
+    g1 = 9.81 * (m[0] * l[0] / 2 + m[1] * (l[0] + l[1] / 2) + m[2] * (l[0] + l[1] + l[2] / 2))
+    assert arm.gravity(np.zeros(3))[0] == pytest.approx(g1, rel=1e-12)
+
+
+def test_arm_shapes_and_limits():
+    arm = mp.builtin_arm("planar_7link")
+    assert arm.nq == 7
+    np.testing.assert_allclose(arm.lower_limits, -math.pi)
+    np.testing.assert_allclose(arm.upper_limits, math.pi)
+    D = arm.mass_matrix(np.zeros(7))
+    np.testing.assert_allclose(D, D.T)
+    assert np.all(np.linalg.eigvalsh(D) > 0)
+
+
+def test_panda_from_example_robot_data_locks_fingers():
+    arm = mp.Arm.from_example_robot_data("panda")
+    assert arm.nq == 7
+    assert all("finger" not in n for n in arm.joint_names)
+    assert arm.srdf_path is not None and Path(arm.srdf_path).is_file()
+    assert len(arm.collision_model.collisionPairs) > 0
+    q = arm.q_reference
+    D = arm.mass_matrix(q)
+    assert np.all(np.linalg.eigvalsh(D) > 0)
+
+
+def test_urdf_from_file_path(tmp_path):
+    path = tmp_path / "a.urdf"
+    path.write_text(mp.planar_arm_urdf([1.0], [1.0]))
+    arm = mp.Arm.from_urdf(path)
+    assert arm.nq == 1
+    # G = ∂V/∂q with V = m g (l/2) sin q: +m g l/2 holds the horizontal link up.
+    assert arm.gravity(np.zeros(1))[0] == pytest.approx(9.81 * 0.5, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("<robot name='x'><link name='a'>", "malformed URDF XML"),
+        ("<robot name='x'><link name='a'/></robot>", "no movable joint"),
+        ("<robt name='x'/>", "not <robot>"),
+        ("/definitely/not/here.urdf", "not found"),
+    ],
+)
+def test_bad_urdf(text, match):
+    with pytest.raises(ValueError, match=match):
+        mp.Arm.from_urdf(text)
+
+
+def test_bad_generator_input():
+    with pytest.raises(ValueError, match="masses"):
+        mp.planar_arm_urdf([0.5, 0.5], [1.0])
+    with pytest.raises(ValueError, match="> 0"):
+        mp.planar_arm_urdf([0.5, -0.5], [1.0, 1.0])
+    with pytest.raises(ValueError, match="lower joint limit"):
+        mp.planar_arm_urdf([0.5], [1.0], lower=1.0, upper=0.0)
+
+
+def test_unknown_example_robot():
+    with pytest.raises(ValueError, match="unknown example-robot-data robot 'pandaa'"):
+        mp.Arm.from_example_robot_data("pandaa")
+
+
+def test_configuration_checks():
+    arm = mp.builtin_arm("planar_2link")
+    with pytest.raises(ValueError, match="2 joint values"):
+        arm.gravity([0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="NaN"):
+        arm.mass_matrix([0.0, float("nan")])

@@ -1,0 +1,375 @@
+"""D* Lite (Koenig & Likhachev 2002, optimized version) and MPD* Lite (paper 000 §3).
+
+Both planners share one search core that runs from the goal towards the start
+over predecessor edges, with priorities
+
+    key(s) = [min(g, rhs)(s) + h(s_start, s) + km ;  min(g, rhs)(s)]
+
+and ``km += h(s_last, s_start)`` once after the robot moved, before the next
+batch of edge changes is processed (or before the next ``plan()``).
+
+MPD* Lite (000 §3, Fig. 6, the "Store" function): every time ``rhs(u)`` is
+(re)computed, the minimising successor is stored as ``u``'s pointer, and the
+path is read by following pointers from the start. D* Lite reads the path by
+g-gradient: at each node the successor minimising ``cost + g``. The search core
+is identical for both, so a comparison measures only path extraction, which is
+the one difference the paper claims (000 §5).
+
+Implementation notes (pitfalls of public implementations, DESIGN §5):
+
+* Zero-cost edges. Classic D* Lite assumes costs > 0: with a zero-cost cycle
+  two nodes can end up consistent while supporting each other with a stale
+  value. Here path values are compared lexicographically as (cost, hops), so
+  every edge is strictly positive in that order and the D* Lite proofs apply;
+  the cost component is the exact float cost, and among equal-cost paths the
+  one with fewest edges is preferred. This also covers float absorption
+  (``c + g == g`` for tiny positive ``c``).
+* No float-equality tests on recomputed costs: the "was this edge the support
+  of rhs(u)?" test of D* Lite is done on the stored pointer (``ptr[u] == v``),
+  which exists in both planners.
+* For a changed directed edge ``u -> v`` it is ``rhs(u)`` that is updated.
+* ``math.inf`` is infinity (no sentinel), and a node with infinite value has
+  hop count 0 so that all unreachable values compare equal.
+* The loop runs while ``top_key < key(start)`` or start is inconsistent (keys
+  compared as tuples); the priority queue is ``heapq`` with lazy deletion: the
+  current entry of a node is the very tuple stored in ``qkey[node]`` (identity).
+"""
+
+from __future__ import annotations
+
+import math
+from heapq import heappop, heappush, heapreplace
+
+from mpd_pin.errors import NoPathError
+from mpd_pin.search.base import Heuristic, Path, Planner, SearchInvariantError
+from mpd_pin.search.graph import Graph
+
+__all__ = ["DStarLite", "MPDStarLite"]
+
+_INF = math.inf
+
+
+class _DStarLiteCore(Planner):
+    """Incremental search from the goal shared by :class:`MPDStarLite` and :class:`DStarLite`."""
+
+    def __init__(
+        self, graph: Graph, start: int, goal: int, heuristic: Heuristic | None = None
+    ) -> None:
+        super().__init__(graph, start, goal, heuristic)
+        n = graph.num_nodes
+        self._g: list[float] = [_INF] * n
+        self._gh: list[int] = [0] * n  # hop count of g (0 when g is inf)
+        self._rhs: list[float] = [_INF] * n
+        self._rh: list[int] = [0] * n  # hop count of rhs
+        self._ptr: list[int] = [-1] * n  # MPD* Lite's stored minimising successor
+        self._qkey: list[tuple | None] = [None] * n  # current heap entry (lazy deletion)
+        self._heap: list[tuple] = []
+        self._km = 0.0
+        self._s_last = self._start
+        self._hcache: list[float | None] | None = None if heuristic is None else [None] * n
+        goal_ = self.goal
+        self._rhs[goal_] = 0.0
+        self._update_vertex(goal_)
+
+    # --------------------------------------------------------------- internals
+    def _hval(self, s: int) -> float:
+        hc = self._hcache
+        hv = hc[s]
+        if hv is None:
+            hv = hc[s] = self.heuristic(self._start, s)
+        return hv
+
+    def _key(self, s: int) -> tuple:
+        """Heap entry ``(k1, hops, k2, s)``; the same expressions as the inlined copies."""
+        g, r = self._g[s], self._rhs[s]
+        gh, rh = self._gh[s], self._rh[s]
+        if r < g or (r == g and rh < gh):
+            mc, mh = r, rh
+        else:
+            mc, mh = g, gh
+        if self._hcache is None:
+            return (mc + self._km, mh, mc, s)
+        return (mc + self._hval(s) + self._km, mh, mc, s)
+
+    def _update_vertex(self, s: int) -> int:
+        """Put ``s`` in the queue iff inconsistent; returns the number of heap pushes."""
+        if self._g[s] == self._rhs[s] and self._gh[s] == self._rh[s]:
+            self._qkey[s] = None
+            return 0
+        k = self._key(s)
+        self._qkey[s] = k
+        heappush(self._heap, k)
+        return 1
+
+    def _recompute_rhs(self, s: int) -> int:
+        """rhs(s) = min over successors of (cost + g), storing the argmin (000 Fig. 6).
+
+        Returns the number of edge costs read.
+        """
+        gr = self.graph
+        g, gh = self._g, self._gh
+        a, b = gr._sptr[s], gr._sptr[s + 1]
+        best = _INF
+        bh = 0
+        bp = -1
+        for v, c in zip(gr._sdst[a:b], gr._scost[a:b], strict=True):
+            t = c + g[v]
+            if t < best:
+                best = t
+                bh = gh[v] + 1
+                bp = v
+            elif t == best and bp >= 0 and gh[v] + 1 < bh:
+                bh = gh[v] + 1
+                bp = v
+        self._rhs[s] = best
+        self._rh[s] = bh
+        self._ptr[s] = bp
+        return b - a
+
+    def _sync_start(self) -> None:
+        """``km += h(s_last, s_start)`` once after the start moved (D* Lite, Fig. 4)."""
+        if self._start == self._s_last:
+            return
+        if self.heuristic is not None:
+            dk = self.heuristic(self._s_last, self._start)
+            if not (0.0 <= dk < _INF):
+                raise ValueError(
+                    f"heuristic({self._s_last}, {self._start}) = {dk!r}; "
+                    "heuristic values must be finite and >= 0"
+                )
+            self._km += dk
+            self._hcache = [None] * self.graph.num_nodes
+        self._s_last = self._start
+
+    def _compute_shortest_path(self) -> None:
+        """ComputeShortestPath of optimized D* Lite, with pointer bookkeeping."""
+        gr = self.graph
+        pptr, psrc, pcost = gr._pptr, gr._psrc, gr._pcost
+        g, gh, rhs, rh, ptr = self._g, self._gh, self._rhs, self._rh, self._ptr
+        qkey, heap = self._qkey, self._heap
+        start = self._start
+        km = self._km
+        hc = self._hcache
+        hfun = self.heuristic
+        recompute = self._recompute_rhs
+        update_vertex = self._update_vertex
+        n_exp = n_ev = n_q = 0
+        while True:
+            # drop stale heap entries (lazy deletion)
+            while heap:
+                top = heap[0]
+                if qkey[top[3]] is top:
+                    break
+                heappop(heap)
+                n_q += 1
+            else:
+                break  # queue empty: every node is consistent
+            gs = g[start]
+            if gs == rhs[start] and gh[start] == rh[start]:
+                # start consistent: stop once top_key >= key(start); -1 makes equal keys stop
+                if not top < (gs + km, gh[start], gs, -1):
+                    break
+            u = top[3]
+            gu, ru, ghu, rhu = g[u], rhs[u], gh[u], rh[u]
+            over = ru < gu or (ru == gu and rhu < ghu)
+            if over:
+                mc, mh = ru, rhu
+            else:
+                mc, mh = gu, ghu
+            if hc is None:
+                knew = (mc + km, mh, mc, u)
+            else:
+                hv = hc[u]
+                if hv is None:
+                    hv = hc[u] = hfun(start, u)
+                knew = (mc + hv + km, mh, mc, u)
+            if top < knew:  # key grew since insertion (km changed): reinsert
+                qkey[u] = knew
+                heapreplace(heap, knew)
+                n_q += 1
+                continue
+            heappop(heap)
+            n_q += 1
+            qkey[u] = None
+            n_exp += 1
+            a, b = pptr[u], pptr[u + 1]
+            n_ev += b - a
+            if over:
+                g[u] = ru
+                gh[u] = rhu
+                nh = rhu + 1
+                for s, c in zip(psrc[a:b], pcost[a:b], strict=True):
+                    t = c + ru
+                    r = rhs[s]
+                    if t < r or (t == r and nh < rh[s]):
+                        # better support through u (the goal's (0, 0) is never beaten)
+                        rhs[s] = t
+                        rh[s] = nh
+                        ptr[s] = u
+                        gsv = g[s]
+                        ghs = gh[s]
+                        if gsv == t and ghs == nh:
+                            qkey[s] = None
+                            continue
+                        if t < gsv or (t == gsv and nh < ghs):
+                            mc, mh = t, nh
+                        else:
+                            mc, mh = gsv, ghs
+                        if hc is None:
+                            k = (mc + km, mh, mc, s)
+                        else:
+                            hv = hc[s]
+                            if hv is None:
+                                hv = hc[s] = hfun(start, s)
+                            k = (mc + hv + km, mh, mc, s)
+                        qkey[s] = k
+                        heappush(heap, k)
+                        n_q += 1
+                    elif t == r and ptr[s] == u and nh != rh[s]:
+                        # same cost, more hops through u (float absorption): re-derive
+                        n_ev += recompute(s)
+                        n_q += update_vertex(s)
+            else:
+                g[u] = _INF
+                gh[u] = 0
+                for s in psrc[a:b]:
+                    if ptr[s] == u:  # rhs(s) was supported by u's old g
+                        n_ev += recompute(s)
+                        n_q += update_vertex(s)
+                n_q += update_vertex(u)
+        self._add_work(n_exp, n_ev, n_q)
+
+    # -------------------------------------------------------------- interface
+    def update_edge(self, u: int, v: int, cost: float) -> None:
+        """Set the cost of edge ``u -> v`` and repair ``rhs(u)``, the tail's value.
+
+        Costs: >= 0, ``math.inf`` = blocked. The work is done here and in the
+        next :meth:`plan` (which processes the queue).
+        """
+        self._sync_start()
+        gr = self.graph
+        gr.set_cost(u, v, cost)  # validates
+        u = int(u)
+        v = int(v)
+        if u == self.goal:
+            return
+        c = gr._scost[gr._edge_id(u, v)]
+        t = c + self._g[v]
+        nh = self._gh[v] + 1
+        r = self._rhs[u]
+        n_ev = 0
+        if t < r or (t == r and nh < self._rh[u]):
+            self._rhs[u] = t
+            self._rh[u] = nh
+            self._ptr[u] = v
+        elif self._ptr[u] == v:
+            n_ev = self._recompute_rhs(u)
+        else:
+            return  # not the support of rhs(u) and not better: nothing changes
+        n_q = self._update_vertex(u)
+        self._add_work(0, n_ev + 1, n_q)
+
+    def move_start(self, node: int) -> None:
+        """The robot is now at ``node``; ``km`` is updated before the next repair."""
+        self._start = self.graph.check_node(node, "start")
+
+    def plan(self) -> Path:
+        """Repair (or, the first time, compute) the solution and return the path."""
+        self._sync_start()
+        self._compute_shortest_path()
+        start = self._start
+        if self._g[start] == _INF:
+            self._close_plan_stats()
+            raise NoPathError(f"no path from node {start} to node {self.goal}")
+        nodes = self._extract()
+        path = self._path_from_nodes(nodes)
+        self._close_plan_stats()
+        return path
+
+    def _extract(self) -> list[int]:
+        raise NotImplementedError
+
+    def _loop_error(self, nodes: list[int]) -> SearchInvariantError:
+        return SearchInvariantError(
+            f"{type(self).__name__}: path extraction from {self._start} did not reach goal "
+            f"{self.goal} within {self.graph.num_nodes} steps (loop: ...{nodes[-5:]}); "
+            "the heuristic may be inconsistent"
+        )
+
+    def rhs(self, node: int) -> float:
+        """Current one-step look-ahead value rhs(node) (cost units; inf if unknown/unreachable)."""
+        return self._rhs[self.graph.check_node(node)]
+
+    def g(self, node: int) -> float:
+        """Current g(node): cost-to-goal estimate (inf if not yet known)."""
+        return self._g[self.graph.check_node(node)]
+
+
+class MPDStarLite(_DStarLiteCore):
+    """MPD* Lite (paper 000 §3, Fig. 6): D* Lite reading the path from stored pointers.
+
+    ``MPDStarLite(graph, start, goal, heuristic=None)``; see :class:`~mpd_pin.search.base.Planner`.
+    """
+
+    def pointer(self, node: int) -> int | None:
+        """Stored minimising successor of ``node`` (None if rhs(node) is inf or node is goal)."""
+        p = self._ptr[self.graph.check_node(node)]
+        return None if p < 0 else p
+
+    def _extract(self) -> list[int]:
+        ptr = self._ptr
+        goal = self.goal
+        s = self._start
+        nodes = [s]
+        limit = self.graph.num_nodes
+        while s != goal:
+            s = ptr[s]
+            if s < 0:
+                raise SearchInvariantError(
+                    f"MPDStarLite: node {nodes[-1]} on the path from {self._start} has no "
+                    "stored pointer"
+                )
+            nodes.append(s)
+            if len(nodes) > limit:
+                raise self._loop_error(nodes)
+        return nodes
+
+
+class DStarLite(_DStarLiteCore):
+    """D* Lite (Koenig & Likhachev 2002): path by g-gradient, argmin of cost + g.
+
+    ``DStarLite(graph, start, goal, heuristic=None)``; see :class:`~mpd_pin.search.base.Planner`.
+    """
+
+    def _extract(self) -> list[int]:
+        gr = self.graph
+        sptr, sdst, scost = gr._sptr, gr._sdst, gr._scost
+        g, gh = self._g, self._gh
+        goal = self.goal
+        s = self._start
+        nodes = [s]
+        limit = gr.num_nodes
+        n_ev = 0
+        while s != goal:
+            a, b = sptr[s], sptr[s + 1]
+            n_ev += b - a
+            best = _INF
+            bh = 0
+            bp = -1
+            for v, c in zip(sdst[a:b], scost[a:b], strict=True):
+                t = c + g[v]
+                if t < best or (t == best and bp >= 0 and gh[v] + 1 < bh):
+                    best = t
+                    bh = gh[v] + 1
+                    bp = v
+            if bp < 0:
+                raise SearchInvariantError(
+                    f"DStarLite: node {s} on the path from {self._start} has no successor "
+                    "with finite cost + g"
+                )
+            s = bp
+            nodes.append(s)
+            if len(nodes) > limit:
+                raise self._loop_error(nodes)
+        self._add_work(0, n_ev, 0)
+        return nodes

@@ -15,6 +15,7 @@ drive (:class:`mpd_pin.Drive`), never to the arm, so it is not counted twice.
 
 from __future__ import annotations
 
+import hashlib
 import io
 import os
 from collections.abc import Sequence
@@ -213,6 +214,32 @@ class Arm:
     def joint_names(self) -> list[str]:
         """Names of the movable joints, in coordinate order."""
         return list(self.model.names)[1:]
+
+    def fingerprint(self) -> str:
+        """SHA-256 of everything that determines dynamics and collision geometry.
+
+        Joint placements, types and limits, link inertias, gravity, and the
+        collision objects (names, parents, placements, geometry type and size).
+        """
+        h = hashlib.sha256()
+        m = self.model
+        h.update(repr((m.nq, m.nv, list(m.names), list(m.parents))).encode())
+        for j in range(1, m.njoints):
+            h.update(m.joints[j].shortname().encode())
+            h.update(np.asarray(m.jointPlacements[j].homogeneous).tobytes())
+            ine = m.inertias[j]
+            h.update(np.array([ine.mass, *ine.lever, *ine.inertia.ravel()]).tobytes())
+        for arr in (m.lowerPositionLimit, m.upperPositionLimit, m.gravity.vector):
+            h.update(np.asarray(arr, dtype=float).tobytes())
+        for g in self.collision_model.geometryObjects:
+            h.update(f"{g.name}|{g.parentJoint}|{type(g.geometry).__name__}|{g.meshPath}".encode())
+            h.update(np.asarray(g.placement.homogeneous).tobytes())
+            for attr in ("radius", "halfLength", "halfSide"):
+                if hasattr(g.geometry, attr):
+                    h.update(np.atleast_1d(np.asarray(getattr(g.geometry, attr), float)).tobytes())
+        for pair in self.collision_model.collisionPairs:
+            h.update(f"{pair.first},{pair.second};".encode())
+        return h.hexdigest()
 
     # --------------------------------------------------------------- checking
     def check_configuration(self, q, what: str = "q") -> np.ndarray:

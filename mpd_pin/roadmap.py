@@ -1,0 +1,471 @@
+"""Probabilistic roadmap with directed electrical-energy edge costs (DESIGN §4).
+
+Nodes are seeded uniform random collision-free configurations inside the joint
+limits, plus the start and the goal. Each node is joined to its k nearest
+neighbours in joint space (scipy ``cKDTree``); an undirected candidate edge is
+kept if every configuration along it, at a fixed joint-space resolution, is
+collision-free. Both directions of every kept edge are then costed by the
+motor-augmented ODE: cost(u→v) = Σ_joints E⁺ (paper 000, Fig. 1), through one
+batched interface, :class:`EnergyCost`, so that lazy evaluation or remote
+executors can replace it without touching the search.
+
+Edge duration rule (documented choice):
+
+* ``duration_rule="fixed"`` — every edge takes ``duration`` seconds;
+* ``duration_rule="distance"`` — ``T = clip(⌈max_k |Δq_k| / ω / quantum⌉·quantum,
+  T_min, T_max)``: the largest joint move at mean speed ``ω`` rad/s, rounded up
+  to a multiple of ``quantum`` seconds (itself a multiple of dt), so edges fall
+  into few batches.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .energy import edge_energies, step_count
+from .motor import Drive
+from .search import Graph
+
+__all__ = ["RoadmapOptions", "EnergyCost", "Roadmap", "build_roadmap", "ROADMAP_FORMAT"]
+
+#: Version of the .npz layout and of the cost model; part of every file's key.
+ROADMAP_FORMAT = "mpd_pin.roadmap/1"
+
+
+@dataclass(frozen=True)
+class RoadmapOptions:
+    """How a roadmap is sampled, connected and costed.
+
+    num_nodes: random free samples (start and goal come on top).
+    k: nearest neighbours per node (joint-space Euclidean).
+    seed: seed of the numpy Generator that draws the samples.
+    resolution: joint-space step (rad) of the edge collision check.
+    duration_rule: "fixed" or "distance" (see module docstring).
+    duration: edge duration (s) for the fixed rule.
+    joint_speed: mean joint speed ω (rad/s) for the distance rule.
+    duration_quantum, min_duration, max_duration: distance rule rounding and bounds (s).
+    dt: RK4 step (s).
+    max_attempts: give up sampling after this many draws per requested node.
+    """
+
+    num_nodes: int = 200
+    k: int = 10
+    seed: int = 0
+    resolution: float = 0.05
+    duration_rule: str = "fixed"
+    duration: float = 1.0
+    joint_speed: float = 1.0
+    duration_quantum: float = 0.25
+    min_duration: float = 0.5
+    max_duration: float = 4.0
+    dt: float = 5e-3
+    max_attempts: int = 200
+
+    def __post_init__(self) -> None:
+        if int(self.num_nodes) != self.num_nodes or self.num_nodes < 0:
+            raise ValueError(f"num_nodes must be a non-negative integer, got {self.num_nodes!r}")
+        if int(self.k) != self.k or self.k < 1:
+            raise ValueError(f"k must be a positive integer, got {self.k!r}")
+        if self.duration_rule not in ("fixed", "distance"):
+            raise ValueError(
+                f"duration_rule must be 'fixed' or 'distance', got {self.duration_rule!r}"
+            )
+        for name in (
+            "resolution",
+            "duration",
+            "joint_speed",
+            "duration_quantum",
+            "min_duration",
+            "max_duration",
+            "dt",
+        ):
+            val = getattr(self, name)
+            if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+                raise ValueError(f"{name} must be a finite number > 0, got {val!r}")
+        if self.min_duration > self.max_duration:
+            raise ValueError("min_duration must not exceed max_duration")
+        step_count(self.duration, self.dt)
+        step_count(self.duration_quantum, self.dt)
+        step_count(self.min_duration, self.dt)
+        step_count(self.max_duration, self.dt)
+
+    def durations(self, Q0: np.ndarray, Q1: np.ndarray) -> np.ndarray:
+        """Edge durations (s) by the chosen rule, one per row of Q0/Q1."""
+        K = Q0.shape[0]
+        if self.duration_rule == "fixed":
+            return np.full(K, float(self.duration))
+        dist = np.max(np.abs(Q1 - Q0), axis=1) if K else np.zeros(0)
+        steps = np.ceil(dist / self.joint_speed / self.duration_quantum - 1e-12)
+        T = np.clip(steps * self.duration_quantum, self.min_duration, self.max_duration)
+        # Snap to the dt grid exactly so T/dt is whole.
+        return np.round(T / self.dt) * self.dt
+
+
+class EnergyCost:
+    """Directed edge cost = E⁺ per joint (J) of the drive tracking the quintic reference.
+
+    The one batched interface through which roadmaps get costs:
+    ``cost(Q0, Q1, durations, progress) -> (K, nq)``. ``executor`` (any
+    ``concurrent.futures.Executor``) splits large batches across workers.
+    """
+
+    def __init__(self, drive: Drive, dt: float = 5e-3, *, executor=None, chunk: int = 1024):
+        self.drive = drive
+        self.dt = float(dt)
+        self.executor = executor
+        self.chunk = int(chunk)
+
+    def describe(self) -> dict:
+        """Plain data that determines the costs (hashed into roadmap keys)."""
+        return {
+            "model": "quintic-rk4-E+",
+            "drive": self.drive.describe(),
+            "arm": self.drive.arm.fingerprint(),
+            "dt": self.dt,
+        }
+
+    def __call__(
+        self,
+        Q0: np.ndarray,
+        Q1: np.ndarray,
+        durations: np.ndarray,
+        progress: Callable[[int], None] | None = None,
+    ) -> np.ndarray:
+        if self.executor is None or Q0.shape[0] <= self.chunk:
+            return edge_energies(
+                self.drive, Q0, Q1, durations, self.dt, chunk=self.chunk, progress=progress
+            )
+        parts = []
+        for start in range(0, Q0.shape[0], self.chunk):
+            sl = slice(start, start + self.chunk)
+            parts.append(
+                self.executor.submit(
+                    edge_energies,
+                    self.drive,
+                    Q0[sl],
+                    Q1[sl],
+                    durations[sl],
+                    self.dt,
+                    chunk=self.chunk,
+                )
+            )
+        out, done = [], 0
+        for fut in parts:
+            res = fut.result()
+            out.append(res)
+            done += res.shape[0]
+            if progress is not None:
+                progress(done)
+        return np.concatenate(out, axis=0)
+
+
+@dataclass
+class Roadmap:
+    """A costed roadmap.
+
+    nodes: (n, nq) configurations (rad); ``start`` and ``goal`` are node ids.
+    src, dst: directed edges (both directions of every collision-free pair).
+    durations: (E,) seconds; energy: (E, nq) E⁺ per joint (J); cost = energy.sum(1).
+    key: hash of everything that determined the roadmap (see :meth:`key_for`).
+    timings: seconds per phase of the build.
+    """
+
+    nodes: np.ndarray
+    start: int
+    goal: int
+    src: np.ndarray
+    dst: np.ndarray
+    durations: np.ndarray
+    energy: np.ndarray
+    key: str
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def num_nodes(self) -> int:
+        return int(self.nodes.shape[0])
+
+    @property
+    def num_edges(self) -> int:
+        return int(self.src.shape[0])
+
+    @property
+    def cost(self) -> np.ndarray:
+        """Directed edge costs (J): E⁺ summed over joints."""
+        return self.energy.sum(axis=1)
+
+    def graph(self) -> Graph:
+        """The search graph (directed, non-negative costs) of this roadmap."""
+        return Graph.from_arrays(self.num_nodes, self.src, self.dst, self.cost)
+
+    def edge_ids(self, path: list[int]) -> np.ndarray:
+        """Row indices of the directed edges along a node path (ValueError if one is missing)."""
+        lookup = {
+            (int(u), int(v)): e for e, (u, v) in enumerate(zip(self.src, self.dst, strict=True))
+        }
+        try:
+            return np.array(
+                [lookup[(int(a), int(b))] for a, b in zip(path[:-1], path[1:], strict=True)],
+                dtype=int,
+            )
+        except KeyError as exc:
+            raise ValueError(f"path uses edge {exc.args[0]} which is not in the roadmap") from None
+
+    def path_energy(self, path: list[int]) -> np.ndarray:
+        """E⁺ per joint (J) of a node path: the sum of its edges' (each starts at rest)."""
+        ids = self.edge_ids(path)
+        return self.energy[ids].sum(axis=0) if ids.size else np.zeros(self.nodes.shape[1])
+
+    # ------------------------------------------------------------------ files
+    @staticmethod
+    def key_for(
+        cost: EnergyCost,
+        world_fingerprint: str,
+        options: RoadmapOptions,
+        start: np.ndarray,
+        goal: np.ndarray,
+    ) -> str:
+        """SHA-256 over arm, motors, controller, dt, world, sampling options, start and goal."""
+        payload = {
+            "format": ROADMAP_FORMAT,
+            "cost": cost.describe(),
+            "world": world_fingerprint,
+            "options": asdict(options),
+            "start": np.asarray(start, float).tolist(),
+            "goal": np.asarray(goal, float).tolist(),
+        }
+        return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+
+    def _arrays(self) -> dict[str, np.ndarray]:
+        return {
+            "nodes": np.asarray(self.nodes, float),
+            "endpoints": np.array([self.start, self.goal], dtype=np.int64),
+            "src": np.asarray(self.src, np.int64),
+            "dst": np.asarray(self.dst, np.int64),
+            "durations": np.asarray(self.durations, float),
+            "energy": np.asarray(self.energy, float),
+        }
+
+    @staticmethod
+    def _checksum(key: str, arrays: dict[str, np.ndarray]) -> str:
+        h = hashlib.sha256(key.encode())
+        for name in sorted(arrays):
+            a = np.ascontiguousarray(arrays[name])
+            h.update(f"{name}:{a.dtype.str}:{a.shape}".encode())
+            h.update(a.tobytes())
+        return h.hexdigest()
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write a ``.npz`` (no pickle) holding the arrays, the key and a checksum."""
+        path = Path(path)
+        arrays = self._arrays()
+        np.savez_compressed(
+            path,
+            key=np.array(self.key),
+            checksum=np.array(self._checksum(self.key, arrays)),
+            format=np.array(ROADMAP_FORMAT),
+            **arrays,
+        )
+        return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
+
+    @classmethod
+    def load(cls, path: str | os.PathLike, expected_key: str | None = None) -> Roadmap:
+        """Read a roadmap saved by :meth:`save`.
+
+        Raises ValueError if the file is not a roadmap, was modified after it was
+        written (checksum), or was built for other parameters (``expected_key``).
+        """
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as f:
+                data = {name: f[name] for name in f.files}
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"cannot read roadmap file {str(path)!r}: {exc}") from None
+        needed = {
+            "key",
+            "checksum",
+            "format",
+            "nodes",
+            "endpoints",
+            "src",
+            "dst",
+            "durations",
+            "energy",
+        }
+        if not needed <= set(data):
+            raise ValueError(
+                f"{str(path)!r} is not a mpd_pin roadmap (missing {sorted(needed - set(data))})"
+            )
+        if str(data["format"]) != ROADMAP_FORMAT:
+            raise ValueError(
+                f"{str(path)!r} has format {str(data['format'])!r}, expected {ROADMAP_FORMAT!r}"
+            )
+        key = str(data["key"])
+        arrays = {n: data[n] for n in ("nodes", "endpoints", "src", "dst", "durations", "energy")}
+        if cls._checksum(key, arrays) != str(data["checksum"]):
+            raise ValueError(
+                f"roadmap file {str(path)!r} was modified after it was written (checksum mismatch)"
+            )
+        if expected_key is not None and key != expected_key:
+            raise ValueError(
+                f"roadmap file {str(path)!r} was built with other parameters (arm, motors, "
+                "controller, world, sampling, start or goal differ); rebuild it"
+            )
+        return cls(
+            nodes=arrays["nodes"],
+            start=int(arrays["endpoints"][0]),
+            goal=int(arrays["endpoints"][1]),
+            src=arrays["src"],
+            dst=arrays["dst"],
+            durations=arrays["durations"],
+            energy=arrays["energy"],
+            key=key,
+        )
+
+
+# --------------------------------------------------------------------------- building
+def _sample_free(checker, lower, upper, n, rng, max_attempts, progress=None) -> np.ndarray:
+    """n uniform samples within [lower, upper] that the checker finds free."""
+    out: list[np.ndarray] = []
+    have, drawn = 0, 0
+    batch = max(64, 2 * n)
+    while have < n:
+        if drawn >= max_attempts * max(n, 1):
+            raise ValueError(
+                f"only {have} of {n} random configurations were collision-free after {drawn} "
+                "draws; the free space is too small (check obstacles and joint limits)"
+            )
+        Q = rng.uniform(lower, upper, size=(batch, lower.size))
+        drawn += batch
+        ok = np.asarray(checker.is_free_batch(Q), dtype=bool)
+        out.append(Q[ok])
+        have += int(ok.sum())
+        if progress is not None:
+            progress(min(have, n))
+    return np.concatenate(out, axis=0)[:n] if n else np.zeros((0, lower.size))
+
+
+def _check_endpoint(arm, checker, q, what: str) -> np.ndarray:
+    q = arm.check_configuration(q, what)
+    if not arm.within_limits(q):
+        raise ValueError(
+            f"{what} {np.round(q, 6).tolist()} is outside the joint limits "
+            f"[{np.round(arm.lower_limits, 6).tolist()}, {np.round(arm.upper_limits, 6).tolist()}]"
+        )
+    if not checker.is_free(q):
+        raise ValueError(f"{what} {np.round(q, 6).tolist()} is in collision")
+    return q
+
+
+def build_roadmap(
+    cost: EnergyCost,
+    checker,
+    start,
+    goal,
+    options: RoadmapOptions | None = None,
+    *,
+    world_fingerprint: str | None = None,
+    cache: str | os.PathLike | None = None,
+    show_progress: bool = True,
+) -> Roadmap:
+    """Sample, connect, check and cost a roadmap; start is node 0, goal node 1.
+
+    ``checker`` is a validity checker (``is_free``, ``is_free_batch``,
+    ``edges_free``) for the known world. With ``cache`` (a ``.npz`` path), a file
+    built with the same key is loaded instead of rebuilding; a file with another
+    key or a bad checksum raises ValueError (delete it to rebuild).
+    """
+    import time
+
+    from tqdm.auto import tqdm
+
+    options = options or RoadmapOptions()
+    arm = cost.drive.arm
+    if world_fingerprint is None:
+        world_fingerprint = checker.world.fingerprint() if hasattr(checker, "world") else ""
+    start = _check_endpoint(arm, checker, start, "start")
+    goal = _check_endpoint(arm, checker, goal, "goal")
+    key = Roadmap.key_for(cost, world_fingerprint, options, start, goal)
+    if cache is not None and Path(cache).exists():
+        return Roadmap.load(cache, expected_key=key)
+
+    timings: dict[str, float] = {}
+    rng = np.random.default_rng(options.seed)
+    lower, upper = arm.lower_limits, arm.upper_limits
+    t0 = time.perf_counter()
+    with tqdm(
+        total=options.num_nodes,
+        desc="sampling",
+        unit="node",
+        disable=not show_progress,
+        leave=False,
+    ) as bar:
+        samples = _sample_free(
+            checker,
+            lower,
+            upper,
+            options.num_nodes,
+            rng,
+            options.max_attempts,
+            progress=lambda h: bar.update(h - bar.n),
+        )
+    nodes = np.vstack([start, goal, samples])
+    timings["sampling"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    n = nodes.shape[0]
+    k = min(options.k, n - 1)
+    tree = cKDTree(nodes)
+    _, nbr = tree.query(nodes, k=k + 1)
+    nbr = np.asarray(nbr).reshape(n, k + 1)
+    a = np.repeat(np.arange(n), k + 1)
+    b = nbr.ravel()
+    keep = (b != a) & (b < n)
+    lo, hi = np.minimum(a[keep], b[keep]), np.maximum(a[keep], b[keep])
+    pairs = np.unique(np.stack([lo, hi], axis=1), axis=0) if lo.size else np.zeros((0, 2), int)
+    timings["neighbours"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    free = (
+        np.asarray(
+            checker.edges_free(nodes[pairs[:, 0]], nodes[pairs[:, 1]], options.resolution),
+            dtype=bool,
+        )
+        if len(pairs)
+        else np.zeros(0, bool)
+    )
+    pairs = pairs[free]
+    timings["edge_checks"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    src = np.concatenate([pairs[:, 0], pairs[:, 1]]).astype(np.int64)
+    dst = np.concatenate([pairs[:, 1], pairs[:, 0]]).astype(np.int64)
+    durations = options.durations(nodes[src], nodes[dst])
+    with tqdm(
+        total=src.size, desc="edge energies", unit="edge", disable=not show_progress, leave=False
+    ) as bar:
+        energy = cost(nodes[src], nodes[dst], durations, progress=lambda d: bar.update(d - bar.n))
+    timings["edge_energies"] = time.perf_counter() - t0
+
+    roadmap = Roadmap(
+        nodes=nodes,
+        start=0,
+        goal=1,
+        src=src,
+        dst=dst,
+        durations=durations,
+        energy=np.asarray(energy, float),
+        key=key,
+        timings=timings,
+    )
+    if cache is not None:
+        roadmap.save(cache)
+    return roadmap

@@ -187,6 +187,7 @@ def _check_edge(drive: Drive, q0, q1) -> tuple[np.ndarray, np.ndarray]:
     return q0, q1
 
 
+@np.errstate(over="ignore", invalid="ignore")  # divergence is detected and reported below
 def simulate_edge(drive: Drive, q0, q1, duration: float = 1.0, dt: float = 5e-3) -> EdgeSimulation:
     """Simulate the move q0 → q1 (rad) over ``duration`` s with RK4 step ``dt`` s (DESIGN §3).
 
@@ -296,6 +297,7 @@ def _pool(drive: Drive, threads: int) -> pin.ModelPool:
     return cached[1]
 
 
+@np.errstate(over="ignore", invalid="ignore")  # divergence is detected and reported below
 def _integrate_batch(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: float, N: int, threads: int):
     """RK4 on K edges sharing duration T and N steps; returns (E⁺, E), each (K, nq)."""
     K, nq = Q0.shape
@@ -437,7 +439,10 @@ def ideal_edge_energy(
     """E⁺ per joint (J) along the reference with perfect tracking: V = V_ff, i = i_ff.
 
     The integrals are taken with RK4's quadrature (Simpson on the half-step
-    grid), so this is the limit of :func:`simulate_edge` as the gains grow.
+    grid). It is the limit of :func:`simulate_edge` as the gains grow when the
+    electrical time constant L/R is short against the edge (e.g. ``SERVO_MOTOR``);
+    with ``PAPER_MOTOR`` (L/R = 0.5 s) a high-gain loop rings through the edge and
+    E⁺ counts the positive half of that ringing, so the two stay apart.
     Uses the feed-forward formulas of DESIGN §3 whatever ``drive.feedforward`` says.
     """
     q0, q1 = _check_edge(drive, q0, q1)

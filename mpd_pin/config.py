@@ -1,0 +1,134 @@
+"""Strict validation of plain-data tables (TOML scenario files) with clear errors.
+
+Every check names the offending key by its dotted path, e.g.
+``scenario 'x.toml': roadmap.k: expected an integer, got 'ten'``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+__all__ = ["ConfigError", "Table"]
+
+
+class ConfigError(ValueError):
+    """A scenario or configuration value is missing, unknown, mistyped or impossible."""
+
+
+class Table:
+    """A read-once view of a mapping: typed getters, and :meth:`done` rejects unknown keys."""
+
+    def __init__(self, data: Any, path: str) -> None:
+        if not isinstance(data, Mapping):
+            raise ConfigError(f"{path or 'top level'}: expected a table, got {type(data).__name__}")
+        self.data = dict(data)
+        self.path = path
+        self.seen: set[str] = set()
+
+    def _name(self, key: str) -> str:
+        return f"{self.path}.{key}" if self.path else key
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def raw(self, key: str, default: Any = ...) -> Any:
+        self.seen.add(key)
+        if key not in self.data:
+            if default is ...:
+                raise ConfigError(f"{self._name(key)}: required key is missing")
+            return default
+        return self.data[key]
+
+    def table(self, key: str, required: bool = False) -> Table:
+        val = self.raw(key, ... if required else {})
+        return Table(val, self._name(key))
+
+    def tables(self, key: str) -> list[Table]:
+        val = self.raw(key, [])
+        if not isinstance(val, list):
+            raise ConfigError(f"{self._name(key)}: expected an array of tables ([[{key}]])")
+        return [Table(v, f"{self._name(key)}[{i}]") for i, v in enumerate(val)]
+
+    def string(self, key: str, default: Any = ..., choices: Iterable[str] | None = None) -> str:
+        val = self.raw(key, default)
+        if val is None and default is None:
+            return None  # type: ignore[return-value]
+        if not isinstance(val, str):
+            raise ConfigError(f"{self._name(key)}: expected a string, got {val!r}")
+        if choices is not None and val not in set(choices):
+            raise ConfigError(f"{self._name(key)}: {val!r} is not one of {sorted(choices)}")
+        return val
+
+    def boolean(self, key: str, default: Any = ...) -> bool:
+        val = self.raw(key, default)
+        if not isinstance(val, bool):
+            raise ConfigError(f"{self._name(key)}: expected true or false, got {val!r}")
+        return val
+
+    def integer(self, key: str, default: Any = ..., minimum: int | None = None) -> int:
+        val = self.raw(key, default)
+        if isinstance(val, bool) or not isinstance(val, int):
+            raise ConfigError(f"{self._name(key)}: expected an integer, got {val!r}")
+        if minimum is not None and val < minimum:
+            raise ConfigError(f"{self._name(key)}: must be ≥ {minimum}, got {val}")
+        return val
+
+    def number(
+        self, key: str, default: Any = ..., *, positive: bool = False, nonnegative: bool = False
+    ) -> float:
+        val = self.raw(key, default)
+        if val is None and default is None:
+            return None  # type: ignore[return-value]
+        if isinstance(val, bool) or not isinstance(val, (int, float)):
+            raise ConfigError(f"{self._name(key)}: expected a number, got {val!r}")
+        val = float(val)
+        if not math.isfinite(val):
+            raise ConfigError(f"{self._name(key)}: must be finite, got {val}")
+        if positive and val <= 0:
+            raise ConfigError(f"{self._name(key)}: must be > 0, got {val}")
+        if nonnegative and val < 0:
+            raise ConfigError(f"{self._name(key)}: must be ≥ 0, got {val}")
+        return val
+
+    def numbers(
+        self, key: str, default: Any = ..., length: int | None = None
+    ) -> list[float] | float:
+        """A number or an array of numbers (optionally of a given length)."""
+        val = self.raw(key, default)
+        if val is None and default is None:
+            return None  # type: ignore[return-value]
+        if isinstance(val, (int, float)) and not isinstance(val, bool):
+            if not math.isfinite(val):
+                raise ConfigError(f"{self._name(key)}: must be finite, got {val}")
+            return float(val)
+        if not isinstance(val, list) or not all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) for x in val
+        ):
+            raise ConfigError(
+                f"{self._name(key)}: expected a number or an array of numbers, got {val!r}"
+            )
+        if length is not None and len(val) != length:
+            raise ConfigError(f"{self._name(key)}: expected {length} numbers, got {len(val)}")
+        if not all(math.isfinite(x) for x in val):
+            raise ConfigError(f"{self._name(key)}: values must be finite, got {val}")
+        return [float(x) for x in val]
+
+    def vector(self, key: str, default: Any = ..., length: int | None = None) -> list[float]:
+        val = self.numbers(key, default, length)
+        if val is None:
+            return None  # type: ignore[return-value]
+        if isinstance(val, float):
+            raise ConfigError(f"{self._name(key)}: expected an array of numbers, got {val!r}")
+        return val
+
+    def done(self) -> None:
+        """Raise ConfigError for any key that was never read (unknown keys)."""
+        unknown = sorted(set(self.data) - self.seen)
+        if unknown:
+            known = ", ".join(sorted(self.seen)) or "none"
+            raise ConfigError(
+                f"{self.path or 'top level'}: unknown key(s) {', '.join(map(repr, unknown))} "
+                f"(known here: {known})"
+            )

@@ -238,10 +238,15 @@ def simulate_edge(drive: Drive, q0, q1, duration: float = 1.0, dt: float = 5e-3)
     X[0] = x
     for n in range(N):
         j = 2 * n
-        k1, V0 = deriv(j, x)
-        k2, _ = deriv(j + 1, x + 0.5 * h * k1)
-        k3, _ = deriv(j + 1, x + 0.5 * h * k2)
-        k4, _ = deriv(j + 2, x + h * k3)
+        try:
+            k1, V0 = deriv(j, x)
+            k2, _ = deriv(j + 1, x + 0.5 * h * k1)
+            k3, _ = deriv(j + 1, x + 0.5 * h * k2)
+            k4, _ = deriv(j + 2, x + h * k3)
+        except ValueError:  # a stage state overflowed to inf/NaN
+            k1 = np.full_like(x, np.nan)
+            k2 = k3 = k4 = k1
+            V0 = np.full(nq, np.nan)
         Vs[n] = V0
         x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
         if not np.all(np.isfinite(x)):

@@ -167,4 +167,3 @@ class Planner(ABC):
                 )
             total += scost[k]
         return Path(nodes=nodes, cost=total)
-

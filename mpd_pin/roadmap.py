@@ -390,7 +390,8 @@ def build_roadmap(
     options = options or RoadmapOptions()
     arm = cost.drive.arm
     if world_fingerprint is None:
-        world_fingerprint = checker.world.fingerprint() if hasattr(checker, "world") else ""
+        # Only what the planner knows shapes the roadmap: hidden obstacles do not.
+        world_fingerprint = checker.world.known().fingerprint() if hasattr(checker, "world") else ""
     start = _check_endpoint(arm, checker, start, "start")
     goal = _check_endpoint(arm, checker, goal, "goal")
     key = Roadmap.key_for(cost, world_fingerprint, options, start, goal)

@@ -251,7 +251,14 @@ def _as_batch(x, nv: int, name: str) -> np.ndarray:
 
 
 def rnea_with_derivative(
-    model: pin.Model, Q, V, A, Jerk, *, chunk: int = DEFAULT_CHUNK
+    model: pin.Model,
+    Q,
+    V,
+    A,
+    Jerk,
+    *,
+    chunk: int = DEFAULT_CHUNK,
+    out: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Inverse dynamics τ and its time derivative τ̇ for a batch of trajectory points.
 
@@ -264,7 +271,9 @@ def rnea_with_derivative(
 
     Only 1-DoF revolute and prismatic joints (any axis) are supported; anything
     else raises ValueError.  ``chunk`` is the number of configurations processed
-    together (the default was chosen by measurement on the Panda).
+    together (the default was chosen by measurement on the Panda).  ``out`` may
+    give two preallocated float64 (nv, B) arrays with contiguous rows to write
+    into (saves allocating and first-touching ~2·8·nv·B bytes per call).
     """
     joints, a0 = _prepare(model)
     nv = model.nv
@@ -278,18 +287,88 @@ def rnea_with_derivative(
             raise ValueError(f"{n} has batch size {x.shape[1]}, Q has {batch}")
     if chunk < 1:
         raise ValueError("chunk must be >= 1")
-    tau = np.empty((nv, batch))
-    tau_dot = np.empty((nv, batch))
+    if out is None:
+        tau = np.empty((nv, batch))
+        tau_dot = np.empty((nv, batch))
+    else:
+        tau, tau_dot = out
+        for o in (tau, tau_dot):
+            if (
+                not isinstance(o, np.ndarray)
+                or o.dtype != np.float64
+                or o.shape != (nv, batch)
+                or o.strides[1] != o.itemsize
+            ):
+                raise ValueError("out must be two float64 (nv, B) arrays with contiguous rows")
     if batch:
         ws = _Workspace(joints, nv, min(chunk, batch))
         for start in range(0, batch, chunk):
             sl = slice(start, min(start + chunk, batch))
             _rnea3_chunk(
-                joints, a0, Q[:, sl], V[:, sl], A[:, sl], Jerk[:, sl], tau[:, sl], tau_dot[:, sl], ws
+                joints, a0, Q[:, sl], V[:, sl], A[:, sl], Jerk[:, sl],
+                tau[:, sl], tau_dot[:, sl], ws,
             )
     if squeeze:
         return tau[:, 0], tau_dot[:, 0]
     return tau, tau_dot
+
+
+# sin/cos of the joint angles: numpy's float64 sin and cos cost ~10 ns per element
+# here (scalar libm); this Cody–Waite reduction + fdlibm kernels is within 1 ulp of
+# them (checked in the tests) and about twice as fast.  Used for |q| < _TRIG_MAX.
+_S = (-1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04,
+      2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10)
+_C = (4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05,
+      -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11)
+_INV_PIO2 = 6.36619772367581382433e-01
+_PIO2_HI = 1.57079632673412561417e00  # first 33 bits of π/2: k·_PIO2_HI is exact for |k| < 2^20
+_PIO2_LO = 6.07710050650619224932e-11  # π/2 − _PIO2_HI
+_TRIG_MAX = 1.0e5
+_QUAD_COS = np.array([1.0, 0.0, -1.0, 0.0])  # cos(nπ/2)
+_QUAD_SIN = np.array([0.0, 1.0, 0.0, -1.0])  # sin(nπ/2)
+
+
+def _sincos(q: np.ndarray, cos: np.ndarray, sin: np.ndarray, tmp: np.ndarray) -> None:
+    """cos[:] = cos(q), sin[:] = sin(q) (q: radians); tmp: scratch of shape (3, *q.shape)."""
+    if q.size == 0 or np.abs(q).max() >= _TRIG_MAX:
+        np.cos(q, out=cos)
+        np.sin(q, out=sin)
+        return
+    k, r, z = tmp
+    np.multiply(q, _INV_PIO2, out=k)
+    np.rint(k, out=k)  # q = k π/2 + r, |r| ≤ π/4
+    np.multiply(k, _PIO2_HI, out=r)
+    np.subtract(q, r, out=r)
+    np.multiply(k, _PIO2_LO, out=z)
+    r -= z
+    np.multiply(r, r, out=z)
+    s = sin
+    np.multiply(z, _S[5], out=s)
+    for coef in _S[4::-1]:
+        s += coef
+        s *= z
+    s *= r
+    s += r  # sin r
+    c = cos
+    np.multiply(z, _C[5], out=c)
+    for coef in _C[4::-1]:
+        c += coef
+        c *= z
+    c *= z
+    z *= 0.5
+    c -= z
+    c += 1.0  # cos r
+    quadrant = k.astype(np.int64)
+    quadrant &= 3
+    qc = _QUAD_COS[quadrant]
+    qs = _QUAD_SIN[quadrant]
+    # sin q = sin r·cos(nπ/2) + cos r·sin(nπ/2);  cos q = cos r·cos(nπ/2) − sin r·sin(nπ/2)
+    np.multiply(s, qs, out=r)
+    np.multiply(c, qs, out=z)
+    s *= qc
+    s += z
+    c *= qc
+    c -= r
 
 
 # rows of a body's motion buffer: 6 motion rows, then the monomial rows
@@ -316,22 +395,39 @@ class _Workspace:
         self.n_motion = peak
         self.motion = np.empty(peak * _ROWS * 3 * cap)
         self.force = np.empty(nj * 12 * cap)
-        self.trig = np.empty(2 * nv * cap)
+        self.trig = np.empty(5 * nv * cap)
         self.scratch = np.empty(24 * cap)
+        self.xf_out = np.empty(12 * cap)
 
     def motion_buffer(self, i: int, nb: int) -> np.ndarray:
         size = _ROWS * 3 * nb
         return self.motion[i * size : (i + 1) * size].reshape(_ROWS, 3, nb)
 
 
+# OpenBLAS multithreads a GEMM above about m·n·k = 2^18; for these skinny products
+# the extra thread only adds synchronisation (and, with busy cores, spin-waits that
+# cost more than the product).  Keep every call below that size.
+_GEMM_MAX_MNK = 1 << 18
+
+
+def _gemm(mat: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
+    """out = mat @ x, split into column blocks so that BLAS stays single-threaded."""
+    cols = x.shape[1]
+    step = max(256, _GEMM_MAX_MNK // mat.size)
+    if cols <= step:
+        np.matmul(mat, x, out=out)
+        return
+    for c0 in range(0, cols, step):
+        np.matmul(mat, x[:, c0 : c0 + step], out=out[:, c0 : c0 + step])
+
+
 def _rnea3_chunk(joints, a0, q, qd, qdd, qddd, tau, tau_dot, ws: _Workspace) -> None:
     nb = q.shape[1]
     nj = len(joints)
     nv = q.shape[0]
-    trig = ws.trig[: 2 * nv * nb].reshape(2, nv, nb)
+    trig = ws.trig[: 5 * nv * nb].reshape(5, nv, nb)
     cos, sin = trig[0], trig[1]
-    np.cos(q, out=cos)
-    np.sin(q, out=sin)
+    _sincos(q, cos, sin, trig[2:])
     forces = ws.force[: nj * 12 * nb].reshape(nj, 6, 2, nb)  # per body: rows 6, blocks F, Ḟ
     scr = ws.scratch[: 24 * nb]
     t6a = scr[: 6 * nb].reshape(2, 3, nb)
@@ -353,7 +449,7 @@ def _rnea3_chunk(joints, a0, q, qd, qdd, qddd, tau, tau_dot, ws: _Workspace) -> 
             w[:, 2] = 0.0
         else:
             parent_big = ws.motion_buffer(owner[jt.parent], nb)
-            np.matmul(jt.xm, parent_big[:6].reshape(6, 3 * nb), out=w.reshape(6, 3 * nb))
+            _gemm(jt.xm, parent_big[:6].reshape(6, 3 * nb), w.reshape(6, 3 * nb))
             if ws.last_child[jt.parent] == body:
                 free.append(owner.pop(jt.parent))
         w4 = w.reshape(2, 3, 3, nb)  # [lin/ang, xyz, v/a/j, batch]
@@ -432,8 +528,8 @@ def _rnea3_chunk(joints, a0, q, qd, qdd, qddd, tau, tau_dot, ws: _Workspace) -> 
                 np.multiply(v[a0_:a1_], a[b0_:b1_], out=dmono[r2 : r2 + n])
             row += n
         f = forces[k]
-        np.matmul(jt.lf, big[: 6 + _N_MONO, 1], out=f[:, 0])
-        np.matmul(jt.lfd, big[:, 2], out=f[:, 1])
+        _gemm(jt.lf, big[: 6 + _N_MONO, 1], f[:, 0])
+        _gemm(jt.lfd, big[:, 2], f[:, 1])
         if ws.last_child[body] == 0:  # a leaf: nobody needs its motion any more
             free.append(owner.pop(body))
     for k in range(nj - 1, -1, -1):
@@ -485,4 +581,6 @@ def _rnea3_chunk(joints, a0, q, qd, qdd, qddd, tau, tau_dot, ws: _Workspace) -> 
             np.multiply(x[0], qi, out=t2a)
             y[1] += t2a
         fp = forces[jt.parent - 1].reshape(6, 2 * nb)
-        fp += jt.xf @ f.reshape(6, 2 * nb)
+        tmp = ws.xf_out[: 12 * nb].reshape(6, 2 * nb)
+        _gemm(jt.xf, f.reshape(6, 2 * nb), tmp)
+        fp += tmp

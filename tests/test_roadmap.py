@@ -1,0 +1,177 @@
+"""Roadmap: sampling, connections, edge checks, directed energy costs, files (DESIGN §4)."""
+
+import numpy as np
+import pytest
+
+import mpd_pin as mp
+from mpd_pin.collision import CollisionChecker
+from mpd_pin.roadmap import EnergyCost, Roadmap, RoadmapOptions, build_roadmap
+from mpd_pin.world import Box, Cylinder, World
+
+START = np.array([0.6, 0.3, 0.2])
+GOAL = np.array([2.4, -0.3, -0.2])
+OPTIONS = RoadmapOptions(num_nodes=50, k=6, seed=3, resolution=0.05, duration=0.5, dt=0.01)
+
+
+@pytest.fixture(scope="module")
+def setup():
+    arm = mp.builtin_arm("planar_3link")
+    drive = mp.Drive(arm, mp.PAPER_MOTOR.with_gear_ratio(5.0), kp=40.0, kd=4.0)
+    world = World(
+        (
+            Box.planar((0.0, 0.9), 0.3, 0.4, name="wall"),
+            Cylinder.planar((-0.7, -0.4), 0.15, name="post"),
+        )
+    )
+    checker = CollisionChecker(arm, world)
+    cost = EnergyCost(drive, OPTIONS.dt)
+    rm = build_roadmap(cost, checker, START, GOAL, OPTIONS, show_progress=False)
+    return arm, drive, world, checker, cost, rm
+
+
+def test_structure_and_costs(setup):
+    arm, drive, world, checker, cost, rm = setup
+    assert rm.num_nodes == OPTIONS.num_nodes + 2
+    np.testing.assert_array_equal(rm.nodes[rm.start], START)
+    np.testing.assert_array_equal(rm.nodes[rm.goal], GOAL)
+    assert np.all(checker.is_free_batch(rm.nodes))
+    assert np.all(rm.nodes >= arm.lower_limits) and np.all(rm.nodes <= arm.upper_limits)
+    # Both directions of every edge, no self loops, no duplicates.
+    pairs = set(zip(rm.src.tolist(), rm.dst.tolist(), strict=True))
+    assert len(pairs) == rm.num_edges
+    assert all((v, u) in pairs for u, v in pairs)
+    assert np.all(rm.src != rm.dst)
+    # Every node's k nearest neighbours are candidates: edges only join near nodes.
+    dist = np.linalg.norm(rm.nodes[rm.src] - rm.nodes[rm.dst], axis=1)
+    kth = np.sort(np.linalg.norm(rm.nodes[:, None] - rm.nodes[None], axis=2), axis=1)[:, OPTIONS.k]
+    assert np.all((dist <= kth[rm.src] + 1e-12) | (dist <= kth[rm.dst] + 1e-12))
+    # Directed costs are the simulated E⁺ of each direction.
+    for e in [0, 1, rm.num_edges // 2, rm.num_edges - 1]:
+        sim = mp.simulate_edge(
+            drive, rm.nodes[rm.src[e]], rm.nodes[rm.dst[e]], rm.durations[e], OPTIONS.dt
+        )
+        np.testing.assert_allclose(rm.energy[e], sim.energy, rtol=1e-8)
+    g = rm.graph()
+    assert g.num_edges == rm.num_edges
+    assert g.cost(int(rm.src[0]), int(rm.dst[0])) == pytest.approx(rm.cost[0], rel=1e-15)
+    assert np.all(rm.cost > 0)
+
+
+def test_no_accepted_edge_collides_at_ten_times_finer_resolution(setup):
+    arm, drive, world, checker, cost, rm = setup
+    fine = OPTIONS.resolution / 10
+    for u, v in zip(rm.src.tolist(), rm.dst.tolist(), strict=True):
+        if u < v:
+            assert checker.edge_free(rm.nodes[u], rm.nodes[v], fine), (u, v)
+
+
+def test_same_seed_same_roadmap_other_seed_differs(setup):
+    arm, drive, world, checker, cost, rm = setup
+    again = build_roadmap(cost, checker, START, GOAL, OPTIONS, show_progress=False)
+    for name in ("nodes", "src", "dst", "durations", "energy"):
+        np.testing.assert_array_equal(getattr(again, name), getattr(rm, name))
+    assert again.key == rm.key
+    other = RoadmapOptions(**{**OPTIONS.__dict__, "seed": 4, "num_nodes": 5})
+    assert Roadmap.key_for(cost, world.known().fingerprint(), other, START, GOAL) != rm.key
+
+
+def test_save_load_and_refusals(setup, tmp_path):
+    arm, drive, world, checker, cost, rm = setup
+    path = rm.save(tmp_path / "rm.npz")
+    back = Roadmap.load(path, expected_key=rm.key)
+    for name in ("nodes", "src", "dst", "durations", "energy"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(rm, name))
+    # The cache path of build_roadmap reuses a matching file ...
+    cached = build_roadmap(cost, checker, START, GOAL, OPTIONS, cache=path, show_progress=False)
+    np.testing.assert_array_equal(cached.energy, rm.energy)
+    # ... and refuses one built with other parameters.
+    other_drive = mp.Drive(arm, mp.PAPER_MOTOR.with_gear_ratio(6.0), kp=40.0, kd=4.0)
+    with pytest.raises(ValueError, match="other parameters"):
+        build_roadmap(
+            EnergyCost(other_drive, OPTIONS.dt),
+            checker,
+            START,
+            GOAL,
+            OPTIONS,
+            cache=path,
+            show_progress=False,
+        )
+    # A tampered file is refused.
+    with np.load(path) as f:
+        data = {k: f[k] for k in f.files}
+    data["energy"] = data["energy"] * 0.5
+    np.savez(tmp_path / "bad.npz", **data)
+    with pytest.raises(ValueError, match="modified"):
+        Roadmap.load(tmp_path / "bad.npz")
+    (tmp_path / "junk.npz").write_bytes(b"not a zip")
+    with pytest.raises(ValueError, match="cannot read"):
+        Roadmap.load(tmp_path / "junk.npz")
+
+
+def test_path_energy_is_sum_of_edges(setup):
+    rm = setup[-1]
+    from mpd_pin.search import Dijkstra
+
+    p = Dijkstra(rm.graph(), rm.start, rm.goal).plan()
+    E = rm.path_energy(p.nodes)
+    assert E.sum() == pytest.approx(p.cost, rel=1e-12)
+    with pytest.raises(ValueError, match="not in the roadmap"):
+        rm.path_energy([rm.start, rm.start])
+
+
+def test_bad_start_goal(setup):
+    arm, drive, world, checker, cost, rm = setup
+    in_wall = np.array([1.5708, 0.0, 0.0])  # straight up through the wall
+    assert not checker.is_free(in_wall)
+    with pytest.raises(ValueError, match="start .* is in collision"):
+        build_roadmap(cost, checker, in_wall, GOAL, OPTIONS, show_progress=False)
+    with pytest.raises(ValueError, match="goal .* outside the joint limits"):
+        build_roadmap(cost, checker, START, np.array([4.0, 0, 0]), OPTIONS, show_progress=False)
+    with pytest.raises(ValueError, match="NaN"):
+        build_roadmap(cost, checker, np.array([np.nan, 0, 0]), GOAL, OPTIONS, show_progress=False)
+
+
+def test_duration_rule():
+    opt = RoadmapOptions(
+        duration_rule="distance",
+        joint_speed=1.0,
+        duration_quantum=0.25,
+        min_duration=0.5,
+        max_duration=2.0,
+        dt=0.005,
+    )
+    Q0 = np.zeros((4, 2))
+    Q1 = np.array([[0.1, 0.0], [0.0, 0.76], [1.3, -0.2], [5.0, 0.0]])
+    np.testing.assert_allclose(opt.durations(Q0, Q1), [0.5, 1.0, 1.5, 2.0])
+    with pytest.raises(ValueError, match="duration_rule"):
+        RoadmapOptions(duration_rule="slow")
+    with pytest.raises(ValueError, match="whole number"):
+        RoadmapOptions(duration=0.5, dt=0.003)
+
+
+def test_sampling_gives_up_clearly():
+    arm = mp.builtin_arm("planar_2link")
+    drive = mp.Drive(arm, mp.PAPER_MOTOR, kp=1.0, kd=0.1)
+    # A ring of boxes around the base leaves (almost) no free configuration.
+    world = World(
+        tuple(
+            Box.planar((0.35 * np.cos(a), 0.35 * np.sin(a)), 0.3, 0.3, angle=a, name=f"b{i}")
+            for i, a in enumerate(np.linspace(0, 2 * np.pi, 12, endpoint=False))
+        )
+    )
+    checker = CollisionChecker(arm, World())
+    blocked = CollisionChecker(arm, world)
+    start, goal = np.array([0.0, 0.0]), np.array([1.0, 0.0])
+    assert checker.is_free(start)
+    opts = RoadmapOptions(num_nodes=20, max_attempts=3)
+
+    class Wrapper:
+        """Endpoints valid in an empty world, samples checked in the blocked one."""
+
+        world = World()
+        is_free = staticmethod(checker.is_free)
+        is_free_batch = staticmethod(blocked.is_free_batch)
+        edges_free = staticmethod(blocked.edges_free)
+
+    with pytest.raises(ValueError, match="free space is too small"):
+        build_roadmap(EnergyCost(drive), Wrapper(), start, goal, opts, show_progress=False)

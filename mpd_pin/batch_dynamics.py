@@ -151,6 +151,7 @@ def _joint_axis(model: pin.Model, i: int) -> tuple[bool, np.ndarray]:
 
 def _force_matrices(i6: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """[I | Q] and [I | Q'] with v ×* I v = Q · monomials(v) and d/dt of it = Q' · terms."""
+
     def quad(v):
         return _cross_force_matrix(v) @ i6 @ v
 
@@ -170,9 +171,7 @@ def _force_matrices(i6: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if not np.allclose(q @ mono, ref, rtol=1e-12, atol=1e-12 * (1.0 + np.abs(i6).max())):
             raise AssertionError("internal error: unexpected structure of v ×* I v")
     # derivative terms: squares -> a_k v_k (coefficient doubled); products ab -> a'b and ab'
-    qd = np.concatenate(
-        [2.0 * q[:, :_N_SQUARES], q[:, _N_SQUARES:], q[:, _N_SQUARES:]], axis=1
-    )
+    qd = np.concatenate([2.0 * q[:, :_N_SQUARES], q[:, _N_SQUARES:], q[:, _N_SQUARES:]], axis=1)
     return np.concatenate([i6, q], axis=1), np.concatenate([i6, qd], axis=1)
 
 
@@ -305,8 +304,15 @@ def rnea_with_derivative(
         for start in range(0, batch, chunk):
             sl = slice(start, min(start + chunk, batch))
             _rnea3_chunk(
-                joints, a0, Q[:, sl], V[:, sl], A[:, sl], Jerk[:, sl],
-                tau[:, sl], tau_dot[:, sl], ws,
+                joints,
+                a0,
+                Q[:, sl],
+                V[:, sl],
+                A[:, sl],
+                Jerk[:, sl],
+                tau[:, sl],
+                tau_dot[:, sl],
+                ws,
             )
     if squeeze:
         return tau[:, 0], tau_dot[:, 0]
@@ -316,10 +322,22 @@ def rnea_with_derivative(
 # sin/cos of the joint angles: numpy's float64 sin and cos cost ~10 ns per element
 # here (scalar libm); this Cody–Waite reduction + fdlibm kernels is within 1 ulp of
 # them (checked in the tests) and about twice as fast.  Used for |q| < _TRIG_MAX.
-_S = (-1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04,
-      2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10)
-_C = (4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05,
-      -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11)
+_S = (
+    -1.66666666666666324348e-01,
+    8.33333333332248946124e-03,
+    -1.98412698298579493134e-04,
+    2.75573137070700676789e-06,
+    -2.50507602534068634195e-08,
+    1.58969099521155010221e-10,
+)
+_C = (
+    4.16666666666666019037e-02,
+    -1.38888888888741095749e-03,
+    2.48015872894767294178e-05,
+    -2.75573143513906633035e-07,
+    2.08757232129817482790e-09,
+    -1.13596475577881948265e-11,
+)
 _INV_PIO2 = 6.36619772367581382433e-01
 _PIO2_HI = 1.57079632673412561417e00  # first 33 bits of π/2: k·_PIO2_HI is exact for |k| < 2^20
 _PIO2_LO = 6.07710050650619224932e-11  # π/2 − _PIO2_HI

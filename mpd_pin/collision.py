@@ -15,8 +15,8 @@ collision pairs are
 
 Hidden obstacles are in the model from the start; their pairs are simply
 inactive in the ``GeometryData`` until revealed, so revealing is a flag flip
-plus one copy of the data into the thread pool (no model rebuild, ~µs per pool
-entry). Distances use two more ``GeometryData`` of the same model, one with only
+plus one copy of the data into the thread pool (no model rebuild: ~35 µs for a
+planar arm, ~160 µs for the Panda). Distances use two more ``GeometryData`` of the same model, one with only
 the obstacle pairs active and one with only the hazard pairs.
 
 Exactness and tolerances
@@ -25,33 +25,47 @@ Every collision request has ``security_margin = 0``: a pair collides exactly
 when the geometries overlap (touching counts as collision). The only extra
 margin is the hazards' ``clearance`` when it is enforced
 (:meth:`CollisionChecker.set_hazard_clearance`). ``distance_upper_bound`` is set
-to the margin so GJK stops as soon as it proves separation (a 1.5–2× speed-up
-that does not change the boolean answer).
+to the margin so GJK may stop as soon as it proves separation (it does not
+change the boolean answer; no measurable speed-up here).
 
-Coal handles the links' cylinders with GJK/EPA on the exact support function
-(coal 3 inflates a cylinder's support point by a relative 1e-10 only in the
-degenerate directions exactly along or across its axis, i.e. ≤ 1e-11 m here),
-so the answer is exact up to the GJK tolerance ``gjk_tolerance = 1e-6``:
-configurations whose true signed distance lies within about 1e-6 m of contact
-may be reported either way. We keep that tolerance (tighter values cost time
-and cannot beat floating-point kinematics anyway); the tests compare with an
-exact 2-D geometry and count the disagreements, all within 1e-6 m of contact.
-Use a positive ``margin`` for a conservative checker.
+Coal's tolerance on the link cylinders: Coal 3 solves cylinder pairs with GJK
+(+ EPA) on the exact support function (it inflates a cylinder's support point
+by a relative 1e-10 only in the degenerate directions along or across its
+axis, ≤ 1e-11 m here). Pinocchio's default requests, however, have
+``enable_contact = False``: GJK alone then reported shallow penetrations (up to
+~2e-4 m measured against the exact 2-D geometry) as free, when it converged on
+a tiny positive distance instead of proving the origin inside. Every request
+here sets ``enable_contact = True`` (EPA decides those cases) and
+``gjk_tolerance = 1e-9`` (distance requests too: the default 1e-6 is relative
+and gave ~1e-6 m distance errors). With that, configurations placed at known
+signed distances from contact disagree with the exact geometry only when
+|d| < 4e-7 m (tests/test_collision.py). EPA runs only on colliding pairs; it
+costs ~1.7× in a batch of random planar configurations (no measurable cost on
+the Panda). Use a positive ``margin`` for a conservative checker.
 
-Backends (measured on the shared 2-core machine, ``bench/collision.py``)
-------------------------------------------------------------------------
-3-link arm + 2 obstacles, configurations per second: loop of
-``pin.computeCollisions`` over pairs ≈ 2.8–3.8e5; loop over a naive
-broad-phase manager ≈ 1.3–4.6e5; ``computeCollisionsInParallel`` with a
-``GeometryPool`` ≈ 6.0e5 (1 thread) / 2.8–8.1e5 (2 threads); with a
-``BroadPhaseManagerPool`` (dynamic AABB tree) ≈ 3.7–6.1e5 (1 thread) /
-3.4–9.8e5 (2 threads). Panda (mesh links) + 2 boxes: loop of pairs ≈ 1.3–1.6e4;
-naive broad-phase loop ≈ 3.3–8.2e4; ``GeometryPool`` ≈ 0.9–1.7e4 / 1.4–2.6e4;
-``BroadPhaseManagerPool`` ≈ 3.9–7.5e4 / 3.2–12e4. (The sweep-and-prune manager
-disagreed with the exact pairs on the planar arm, so it is not used.) Chosen:
-single queries go through a naive broad-phase manager (AABB culling, then the
-exact narrow phase), batches through ``computeCollisionsInParallel`` on a
-``BroadPhaseManagerPool`` — the fastest or within noise of it on both arms.
+Backends (bench/collision.py; shared 2-core machine under load ≈ 2, best of 3)
+-----------------------------------------------------------------------------
+Configurations per second, 3-link arm + 2 obstacles / Panda (mesh links) + 2 boxes:
+
+* loop of ``pin.computeCollisions`` over the pairs: 2.4e5 / 1.6e4
+* loop over a naive broad-phase manager: 2.8e5 / 7.5e4
+* loop over a dynamic-AABB-tree manager: 1.2e5 / 5.2e4
+* ``GeometryPool`` in parallel, 1 and 2 threads: 2.0e5, 2.4e5 / 1.6e4, 1.4e4
+* ``BroadPhaseManagerPool`` in parallel, 1 and 2 threads: 2.9e5, 1.9e5 / 7.4e4, 6.3e4
+* ``is_free`` in a loop (input checks included): 1.8e5 / 7.0e4
+
+(Repeated runs vary by up to 2× with the machine's load; the sweep-and-prune
+manager disagreed with the exact pairs on the planar arm and is not used.)
+Chosen: single queries loop over the pairs for primitive-only arms and over a
+naive broad-phase manager when the arm has meshes (``single_backend="auto"``);
+batches use ``computeCollisionsInParallel`` on a ``BroadPhaseManagerPool``
+(the only pool that is fast with meshes, on par for primitives). Edges:
+``edges_free`` passes each edge as one trajectory in bisection order with
+per-trajectory early exit: 3.9e4 edges/s at 0.05 rad for the 3-link arm
+(1.2× a loop of ``edge_free``, 1.9× one flat batch of all configurations),
+1.2e4 edges/s for the Panda. Revealing an obstacle costs ~35 µs (planar) to
+~160 µs (Panda); building a checker 0.5 ms / 3 ms. Two threads did not pay
+on the loaded machine: pass ``num_threads`` to suit yours.
 
 Thread safety: a checker owns its Pinocchio ``Data``/``GeometryData`` and thread
 pool; do not call one checker from several Python threads at once (use
@@ -60,11 +74,13 @@ pool; do not call one checker from several Python threads at once (use
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from collections.abc import Sequence
 from typing import Any
 
+import coal
 import numpy as np
 import pinocchio as pin
 
@@ -78,10 +94,13 @@ __all__ = ["CollisionChecker", "edge_configurations", "GJK_TOLERANCE"]
 GJK_TOLERANCE = 1e-9
 
 
+@functools.lru_cache(maxsize=1024)
 def _bisection_order(n: int) -> np.ndarray:
     """Indices 0..n with both ends first, then midpoints coarse to fine (for early exit)."""
     if n <= 1:
-        return np.arange(n + 1)
+        out = np.arange(n + 1)
+        out.flags.writeable = False
+        return out
     order = [0, n]
     intervals = [(0, n)]
     while intervals:
@@ -93,7 +112,9 @@ def _bisection_order(n: int) -> np.ndarray:
                 nxt.append((a, m))
                 nxt.append((m, b))
         intervals = nxt
-    return np.array(order)
+    out = np.array(order)
+    out.flags.writeable = False  # cached: shared between calls
+    return out
 
 
 def edge_configurations(q0: np.ndarray, q1: np.ndarray, resolution: float) -> np.ndarray:
@@ -105,7 +126,7 @@ def edge_configurations(q0: np.ndarray, q1: np.ndarray, resolution: float) -> np
     """
     d = float(np.max(np.abs(q1 - q0))) if q0.size else 0.0
     n = max(1, math.ceil(d / resolution - 1e-9))
-    t = np.linspace(0.0, 1.0, n + 1)[:, None]
+    t = (np.arange(n + 1) / n)[:, None]
     return q0[None, :] + t * (q1 - q0)[None, :]
 
 
@@ -132,6 +153,10 @@ class CollisionChecker:
         Security margin (m) for obstacle and self-collision pairs; 0 = exact.
     num_threads:
         Threads for the batch queries (default: number of CPUs).
+    single_backend:
+        Single queries (:meth:`is_free`, :meth:`edge_free`): ``"pairs"`` loops over
+        the collision pairs, ``"broadphase"`` culls them with AABBs first;
+        ``"auto"`` picks broad phase when the arm has mesh geometry, else pairs.
     """
 
     def __init__(
@@ -144,6 +169,7 @@ class CollisionChecker:
         hazard_clearance: bool = False,
         margin: float = 0.0,
         num_threads: int | None = None,
+        single_backend: str = "auto",
     ) -> None:
         if not isinstance(arm, Arm):
             raise ValueError(f"arm must be an mpd_pin.Arm, got {type(arm).__name__}")
@@ -158,6 +184,11 @@ class CollisionChecker:
             num_threads = os.cpu_count() or 1
         if int(num_threads) < 1:
             raise ValueError(f"num_threads must be >= 1, got {num_threads!r}")
+        if single_backend not in ("auto", "pairs", "broadphase"):
+            raise ValueError(
+                f"single_backend must be 'auto', 'pairs' or 'broadphase', got {single_backend!r}"
+            )
+        self._single_backend = single_backend
         self.arm = arm
         self.world = world
         self.margin = margin
@@ -227,9 +258,21 @@ class CollisionChecker:
         self._npairs = k
         self._active = np.zeros(k, dtype=bool)
         self._margins = np.zeros(k)
+        self._dist_flags = np.zeros(k, dtype=bool)
+        self._haz_flags = np.zeros(k, dtype=bool)
+        self._haz_clear_of = {
+            k: self._clearance[n] for n, idx in self.hazard_pairs.items() for k in idx
+        }
         self._manager = pin.BroadPhaseManager_NaiveCollisionManager(
             self.model, self.geom_model, self.geom_data
         )
+        if self._single_backend == "auto":
+            meshes = any(
+                go.geometry.getObjectType() != coal.OT_GEOM for go in arm_cm.geometryObjects
+            )
+            self.single_backend = "broadphase" if meshes else "pairs"
+        else:
+            self.single_backend = self._single_backend
         self._pool = pin.BroadPhaseManagerPool_DynamicAABBTreeCollisionManager(
             self.model, self.geom_model, self.num_threads
         )
@@ -263,40 +306,49 @@ class CollisionChecker:
         return active, margins, dist, haz
 
     def _sync(self, force: bool = False) -> None:
-        """Bring pair activation and margins in line with the world (cheap when unchanged)."""
+        """Bring pair activation and margins in line with the world (cheap when unchanged).
+
+        Only the pairs whose state changed are touched; the thread pool then gets
+        one copy of the updated ``GeometryData``.
+        """
         if not force and self._synced_version == self.world.version:
             return
         active, margins, dist, haz = self._pair_state()
-        if force or not (
-            np.array_equal(active, self._active) and np.array_equal(margins, self._margins)
+        changed_margin = np.flatnonzero(margins != self._margins)
+        changed_active = np.flatnonzero(active != self._active)
+        if force:
+            changed_margin = changed_active = np.arange(self._npairs)
+        for k in map(int, changed_margin):
+            req = self.geom_data.collisionRequests[k]
+            req.security_margin = float(margins[k])
+            # Run EPA when GJK is inconclusive: without it (Pinocchio's default
+            # enable_contact=False) shallow penetrations of the link cylinders, up to
+            # ~2e-4 m in our tests, were reported as free.
+            req.enable_contact = True
+            req.gjk_tolerance = GJK_TOLERANCE
+            # GJK may stop once separation beyond the margin is proven.
+            req.distance_upper_bound = float(margins[k]) + 1e-9
+        for k in map(int, changed_active):
+            if active[k]:
+                self.geom_data.activateCollisionPair(k)
+            else:
+                self.geom_data.deactivateCollisionPair(k)
+        for data, flags, old in (
+            (self._dist_data, dist, self._dist_flags),
+            (self._hazard_data, haz, self._haz_flags),
         ):
-            for k in range(self._npairs):
-                req = self.geom_data.collisionRequests[k]
-                req.security_margin = float(margins[k])
-                # Run EPA when GJK is inconclusive: without it (Pinocchio's default
-                # enable_contact=False) shallow penetrations of the link cylinders, up to
-                # ~2e-4 m in our tests, were reported as free.
-                req.enable_contact = True
-                req.gjk_tolerance = GJK_TOLERANCE
-                # GJK may stop once separation beyond the margin is proven.
-                req.distance_upper_bound = float(margins[k]) + 1e-9
-                if active[k]:
-                    self.geom_data.activateCollisionPair(k)
+            todo = np.arange(self._npairs) if force else np.flatnonzero(flags != old)
+            for k in map(int, todo):
+                if flags[k]:
+                    data.activateCollisionPair(k)
                 else:
-                    self.geom_data.deactivateCollisionPair(k)
-            for data, flags in ((self._dist_data, dist), (self._hazard_data, haz)):
-                for k in range(self._npairs):
-                    if flags[k]:
-                        data.activateCollisionPair(k)
-                    else:
-                        data.deactivateCollisionPair(k)
+                    data.deactivateCollisionPair(k)
+        if force or changed_margin.size or changed_active.size:
             self._pool.update(self.geom_data)
-            self._active, self._margins = active, margins
+        self._active, self._margins = active, margins
+        self._dist_flags, self._haz_flags = dist, haz
         self._dist_idx = [int(k) for k in np.flatnonzero(dist)]
         self._haz_idx = [int(k) for k in np.flatnonzero(haz)]
-        self._haz_clear_of = {
-            k: self._clearance[n] for n, idx in self.hazard_pairs.items() for k in idx
-        }
         self._synced_version = self.world.version
 
     # ------------------------------------------------------------- settings
@@ -336,11 +388,22 @@ class CollisionChecker:
             hazard_clearance=self._hazard_clearance,
             margin=self.margin,
             num_threads=self.num_threads,
+            single_backend=self._single_backend,
         )
 
     # ---------------------------------------------------------------- input
     def _q(self, q: Any, what: str = "q") -> np.ndarray:
-        return self.arm.check_configuration(q, what)
+        """``q`` as a float array of length nq, else ValueError (fast path of
+        ``Arm.check_configuration``: a few µs matter at 10⁵ queries per second)."""
+        try:
+            arr = np.asarray(q, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"{what} must be {self.arm.nq} numbers, got {q!r}") from None
+        if arr.shape != (self.arm.nq,):
+            raise ValueError(f"{what} must have {self.arm.nq} joint values, got shape {arr.shape}")
+        if not all(map(math.isfinite, arr.tolist())):
+            raise ValueError(f"{what} contains NaN or infinity: {arr.tolist()}")
+        return arr
 
     def _batch(self, Q: Any, what: str = "Q") -> np.ndarray:
         try:
@@ -364,11 +427,18 @@ class CollisionChecker:
         return r
 
     # -------------------------------------------------------------- queries
+    def _collides(self, q: np.ndarray) -> bool:
+        if self.single_backend == "pairs":
+            return pin.computeCollisions(
+                self.model, self.data, self.geom_model, self.geom_data, q, True
+            )
+        return pin.computeCollisions(self.model, self.data, self._manager, q, True)
+
     def is_free(self, q: Any) -> bool:
         """True if configuration ``q`` is collision-free (obstacles, hazards, self)."""
         q = self._q(q)
         self._sync()
-        return not pin.computeCollisions(self.model, self.data, self._manager, q, True)
+        return not self._collides(q)
 
     def is_free_batch(self, Q: Any) -> np.ndarray:
         """Validity of each row of ``Q`` (K, nq) as a (K,) bool array (parallel)."""
@@ -454,7 +524,7 @@ class CollisionChecker:
         self._sync()
         Q = edge_configurations(q0, q1, r)
         for i in _bisection_order(len(Q) - 1):
-            if pin.computeCollisions(self.model, self.data, self._manager, Q[i], True):
+            if self._collides(Q[i]):
                 return False
         return True
 
@@ -473,12 +543,24 @@ class CollisionChecker:
         K = Q0.shape[0]
         if K == 0:
             return np.zeros(0, dtype=bool)
+        D = Q1 - Q0
+        steps = np.maximum(1, np.ceil(np.abs(D).max(axis=1) / r - 1e-9).astype(np.int64))
         trajectories = pin.StdVec_MatrixXs()
-        for k in range(K):
-            Q = edge_configurations(Q0[k], Q1[k], r)
-            trajectories.append(np.asfortranarray(Q[_bisection_order(len(Q) - 1)].T))
+        owner = np.empty(K, dtype=np.int64)  # edge index of each trajectory
+        pos = 0
+        for n in np.unique(steps):  # edges with the same step count, vectorised
+            idx = np.flatnonzero(steps == n)
+            t = (_bisection_order(int(n)) / n)[None, :, None]
+            configs = Q0[idx, None, :] + t * D[idx, None, :]  # (k, n + 1, nq), C order
+            for i in range(idx.size):
+                trajectories.append(configs[i].T)  # (nq, n + 1), Fortran order: no copy
+            owner[pos : pos + idx.size] = idx
+            pos += idx.size
         res = pin.computeCollisionsInParallel(self.num_threads, self._pool, trajectories, True)
-        return np.array([not np.any(np.asarray(v, dtype=bool)) for v in res], dtype=bool)
+        out = np.empty(K, dtype=bool)
+        for j, v in enumerate(res):
+            out[owner[j]] = not any(v)
+        return out
 
     # ----------------------------------------------------------------- info
     def __repr__(self) -> str:

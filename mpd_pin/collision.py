@@ -16,8 +16,9 @@ collision pairs are
 Hidden obstacles are in the model from the start; their pairs are simply
 inactive in the ``GeometryData`` until revealed, so revealing is a flag flip
 plus one copy of the data into the thread pool (no model rebuild: ~35 µs for a
-planar arm, ~160 µs for the Panda). Distances use two more ``GeometryData`` of the same model, one with only
-the obstacle pairs active and one with only the hazard pairs.
+planar arm, ~160 µs for the Panda). Distances use two more ``GeometryData`` of
+the same model, one with only the obstacle pairs active and one with only the
+hazard pairs.
 
 Exactness and tolerances
 ------------------------

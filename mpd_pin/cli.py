@@ -1,0 +1,108 @@
+"""The ``mpd-pin`` command.
+
+    mpd-pin scenarios                       list the built-in scenarios
+    mpd-pin run NAME|FILE --out DIR         plan a scenario, write result.json, plots, replay.html
+
+Bad input (unknown scenario, malformed TOML or URDF, unknown keys, start or goal
+in collision, no path) prints one line on stderr and exits with status 2 (or 3
+when no path exists); nothing is left half-written in DIR but what was done.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .config import ConfigError
+from .errors import MpdPinError, NoPathError
+
+__all__ = ["main"]
+
+
+def _describe(path: Path) -> tuple[str, str]:
+    from .scenario import load_scenario_data
+
+    try:
+        data = load_scenario_data(path)
+    except ConfigError as exc:
+        return "?", f"(unreadable: {exc})"
+    return str(data.get("kind", "energy")), str(data.get("description", ""))
+
+
+def cmd_scenarios(_: argparse.Namespace) -> int:
+    from .scenario import builtin_scenarios
+
+    for name, path in builtin_scenarios().items():
+        kind, desc = _describe(path)
+        print(f"{name:<14} {kind:<13} {desc}")
+    return 0
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from .scenario import load_scenario_data, parse_energy_scenario, resolve_scenario
+
+    path = resolve_scenario(args.scenario)
+    data = load_scenario_data(path)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {str(out)!r} exists and is not a directory")
+    if data.get("kind", "energy") == "dynamic2link":
+        from .twolink.run import run_dynamic_scenario
+
+        result = run_dynamic_scenario(data, out, seed=args.seed, show_progress=not args.quiet)
+        print(f"{result.get('name', path.stem)}: D* path {result['path_length_dstar']:.4f} m, "
+              f"PSO path {result['path_length_pso']:.4f} m -> {out}/result.json")
+        return 0
+    from .runner import run_energy_scenario
+
+    scn = parse_energy_scenario(data, source=str(path), base_dir=path.parent, seed=args.seed)
+    result = run_energy_scenario(scn, out, show_progress=not args.quiet,
+                                 cache=Path(args.cache) if args.cache else None,
+                                 replay=not args.no_replay)
+    per_joint = ", ".join(f"{e:.4g}" for e in result["energy_per_joint"])
+    print(f"{scn.name}: {result['total_energy']:.6g} J ({per_joint}) over "
+          f"{result['path']['length_nodes']} nodes; roadmap {result['roadmap']['num_nodes']} "
+          f"nodes -> {out}/result.json")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="mpd-pin",
+        description="Energy-optimal, collision-free motion planning for robot arms (MPD* Lite).",
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("scenarios", help="list the built-in scenarios")
+    p.set_defaults(func=cmd_scenarios)
+    p = sub.add_parser("run", help="plan a scenario and write result.json, plots and replay.html")
+    p.add_argument("scenario", help="built-in scenario name or path to a .toml file")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--seed", type=int, default=None, help="override the scenario's random seed")
+    p.add_argument("--cache", default=None, help="roadmap .npz to reuse (or create)")
+    p.add_argument("--no-replay", action="store_true", help="skip the meshcat replay.html")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(func=cmd_run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``mpd-pin`` console script; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except NoPathError as exc:
+        print(f"mpd-pin: no path: {exc}", file=sys.stderr)
+        return 3
+    except (ConfigError, ValueError, MpdPinError) as exc:
+        msg = " ".join(str(exc).split())  # exactly one line
+        print(f"mpd-pin: error: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("mpd-pin: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,212 @@
+"""Matplotlib figures of a planned motion (paper 000 Figs. 12–17).
+
+* :func:`plot_arm_path` — the arm at every path node over the obstacles, with
+  the end-effector trace (x–z plane for planar arms; a 3-D view otherwise);
+* :func:`plot_joint_angles` — joint angles (rad) against time (s);
+* :func:`plot_cumulative_energy` — E⁺ per joint (J) accumulated against time (s).
+
+All functions return a ``matplotlib.figure.Figure`` and never call ``show``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from .arm import Arm
+from .world import Hazard, World
+
+__all__ = [
+    "draw_world_xz",
+    "arm_points",
+    "is_planar_xz",
+    "plot_arm_path",
+    "plot_joint_angles",
+    "plot_cumulative_energy",
+]
+
+OBSTACLE_COLOR = "#6c757d"
+HAZARD_COLOR = "#d1495b"
+HIDDEN_COLOR = "#7b2cbf"
+
+
+def draw_world_xz(ax, world: World | None, *, show_hidden: bool = True) -> list:
+    """Draw obstacles and hazards as their cross-sections with the plane y = 0.
+
+    Obstacles grey, hazards red, obstacles not yet known dashed purple. Each
+    patch's ``gid`` is the obstacle's name. Returns the patches.
+    """
+    from matplotlib.patches import Polygon as PolygonPatch
+
+    patches = []
+    if world is None:
+        return patches
+    for item in world:
+        hidden = not world.is_known(item.name)
+        if hidden and not show_hidden:
+            continue
+        shape = item.shape if isinstance(item, Hazard) else item
+        section = shape.section_xz()
+        if section is None:
+            continue
+        if isinstance(item, Hazard):
+            color = HAZARD_COLOR
+        elif item.hidden:
+            color = HIDDEN_COLOR
+        else:
+            color = OBSTACLE_COLOR
+        patch = PolygonPatch(
+            section,
+            closed=True,
+            facecolor=color,
+            edgecolor="black",
+            alpha=0.3 if hidden else 0.6,
+            linestyle="--" if hidden else "-",
+            gid=item.name,
+        )
+        ax.add_patch(patch)
+        patches.append(patch)
+        cx, cz = section.mean(axis=0)
+        ax.annotate(item.name, (cx, cz), ha="center", va="center", fontsize=7)
+    return patches
+
+
+def arm_points(arm: Arm, q: np.ndarray, ee_frame: str | None = None) -> np.ndarray:
+    """World positions (m) of every joint origin, then of the end-effector frame: (njoints, 3)."""
+    data = arm.model.createData()
+    pin.framesForwardKinematics(arm.model, data, np.asarray(q, float))
+    pts = [data.oMi[j].translation.copy() for j in range(1, arm.model.njoints)]
+    frame = ee_frame or ("ee" if arm.model.existFrame("ee") else None)
+    if frame is not None:
+        pts.append(data.oMf[arm.model.getFrameId(frame)].translation.copy())
+    return np.array(pts)
+
+
+def is_planar_xz(arm: Arm) -> bool:
+    """True if the arm moves in the x–z plane: joint origins at y = 0, every axis along ±y."""
+    data = arm.model.createData()
+    q = np.random.default_rng(0).uniform(-1, 1, arm.nq)
+    J = pin.computeJointJacobians(arm.model, data, q)
+    origins_in_plane = all(
+        abs(data.oMi[j].translation[1]) < 1e-9 for j in range(1, arm.model.njoints)
+    )
+    return bool(origins_in_plane and np.allclose(J[[1, 3, 5], :], 0.0, atol=1e-9))
+
+
+def _ee_trace(arm: Arm, Q: np.ndarray) -> np.ndarray:
+    return np.array([arm_points(arm, q)[-1] for q in Q])
+
+
+def plot_arm_path(
+    arm: Arm,
+    world: World | None,
+    Q_nodes: np.ndarray,
+    *,
+    Q_motion: np.ndarray | None = None,
+    other_paths: dict[str, np.ndarray] | None = None,
+    title: str = "",
+):
+    """The arm at each path node (light → dark) over the world, with the end-effector trace.
+
+    ``Q_nodes`` (n, nq) path configurations; ``Q_motion`` (m, nq) the simulated
+    motion for the trace; ``other_paths`` name → (k, nq) node configurations of
+    paths drawn for comparison (e.g. the path before re-planning).
+    """
+    import matplotlib.pyplot as plt
+
+    Q_nodes = np.asarray(Q_nodes, float)
+    planar = is_planar_xz(arm)
+    trace = _ee_trace(arm, Q_motion if Q_motion is not None else Q_nodes)
+    if planar:
+        fig, ax = plt.subplots(figsize=(7, 6))
+        draw_world_xz(ax, world)
+        shades = plt.cm.Blues(np.linspace(0.35, 1.0, len(Q_nodes)))
+        for q, c in zip(Q_nodes, shades, strict=True):
+            p = arm_points(arm, q)
+            ax.plot(p[:, 0], p[:, 2], "-o", color=c, lw=2, ms=3)
+        ax.plot(trace[:, 0], trace[:, 2], "-", color="#e07a5f", lw=1.5, label="end effector")
+        for (name, Qo), col in zip(
+            (other_paths or {}).items(), ["#81b29a", "#f2cc8f", "#3d405b"], strict=False
+        ):
+            tr = _ee_trace(arm, np.asarray(Qo, float))
+            ax.plot(tr[:, 0], tr[:, 2], "--", color=col, lw=1.5, label=name)
+        ax.plot([0], [0], "ks", ms=8)
+        reach = np.max(np.linalg.norm(arm_points(arm, Q_nodes[0])[:, [0, 2]], axis=1)) * 1.1
+        reach = max(reach, float(np.max(np.abs(trace[:, [0, 2]]))) * 1.1)
+        ax.set_xlim(-reach, reach)
+        ax.set_ylim(-reach, reach)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("z (m)")
+        ax.legend(loc="lower right", fontsize="small")
+    else:
+        fig = plt.figure(figsize=(7, 6))
+        ax = fig.add_subplot(projection="3d")
+        ax.plot(trace[:, 0], trace[:, 1], trace[:, 2], "-", color="#e07a5f", label="end effector")
+        for q in Q_nodes:
+            p = arm_points(arm, q)
+            ax.plot(p[:, 0], p[:, 1], p[:, 2], "-o", color="#3d5a80", alpha=0.5, ms=2)
+        if world is not None:
+            for item in world:
+                shape = item.shape if isinstance(item, Hazard) else item
+                x, y, z = shape.position
+                ax.scatter(
+                    [x],
+                    [y],
+                    [z],
+                    marker="s",
+                    s=80,
+                    color=HAZARD_COLOR if isinstance(item, Hazard) else OBSTACLE_COLOR,
+                )
+                ax.text(x, y, z, item.name, fontsize=7)
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        ax.set_zlabel("z (m)")
+        ax.legend(loc="upper right", fontsize="small")
+    ax.set_title(title or f"{arm.name}: path of {len(Q_nodes)} nodes")
+    fig.tight_layout()
+    return fig
+
+
+def plot_joint_angles(
+    t: np.ndarray,
+    q: np.ndarray,
+    joint_names: Sequence[str],
+    *,
+    node_times: Sequence[float] = (),
+    title: str = "",
+):
+    """Joint angles (rad) against time (s); vertical lines at the path nodes."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for k, name in enumerate(joint_names):
+        ax.plot(t, q[:, k], label=name)
+    for tn in node_times:
+        ax.axvline(tn, color="0.85", lw=0.8, zorder=0)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("joint angle (rad)")
+    ax.legend(fontsize="small", ncol=2)
+    ax.set_title(title or "joint angles along the path")
+    fig.tight_layout()
+    return fig
+
+
+def plot_cumulative_energy(
+    t: np.ndarray, energy_t: np.ndarray, joint_names: Sequence[str], *, title: str = ""
+):
+    """Cumulative E⁺ per joint (J) and their total against time (s)."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for k, name in enumerate(joint_names):
+        ax.plot(t, energy_t[:, k], label=f"{name}: {energy_t[-1, k]:.4g} J")
+    ax.plot(t, energy_t.sum(axis=1), "k--", label=f"total: {energy_t[-1].sum():.4g} J")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("energy drawn E⁺ (J)")
+    ax.legend(fontsize="small", ncol=2)
+    ax.set_title(title or "cumulative electrical energy per joint")
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,368 @@
+"""Scenario files (TOML): arm, motors, controller, world, roadmap and task (DESIGN §7).
+
+A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
+
+    name = "case1"
+    description = "3-link arm, start and goal on either side of an obstacle"
+
+    [arm]                      # exactly one of: builtin, urdf, example_robot_data
+    builtin = "planar_3link"   # robots/*.urdf; urdf = "path/relative/to/this/file.urdf"
+
+    [motor]                    # preset "paper" (Table 7) or "servo", any field overridden
+    preset = "paper"
+    gear_ratio = 5.0           # R, L, Kt, Ke, B, J, v_max also accepted
+
+    [controller]
+    kp = 40.0                  # V/rad, scalar or one per joint
+    kd = 4.0                   # V·s/rad
+    feedforward = true
+
+    [roadmap]                  # RoadmapOptions fields
+    num_nodes = 150
+    k = 10
+    seed = 1
+    duration = 1.0             # s
+    dt = 0.005                 # s
+
+    [[obstacles]]              # planar shapes in the arm's x–z plane (m, rad) ...
+    type = "box"               # box | cylinder | sphere | polygon
+    center = [0.0, 0.9]
+    width = 0.3
+    height = 0.4
+    # ... or 3-D ones: size = [sx, sy, sz], position = [x, y, z], rpy = [r, p, y]
+    hidden = false             # hidden obstacles are revealed by the sensor
+
+    [[hazards]]                # "No Enter" zones: a shape and a clearance (m)
+    type = "polygon"
+    vertices = [[0.2, 0.5], [0.5, 0.5], [0.35, 0.8]]
+    clearance = 0.1
+
+    [sensor]
+    range = 0.15               # m
+
+    [task]
+    start = [0.6, 0.3, 0.2]    # rad; or start_ee = [x, z] (planar) / [x, y, z], solved by IK
+    goal = [2.4, -0.3, -0.2]
+
+Scenarios of ``kind = "dynamic2link"`` (paper 002) are read by
+:mod:`mpd_pin.twolink`.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, replace
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .arm import Arm
+from .config import ConfigError, Table
+from .motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
+from .roadmap import RoadmapOptions
+from .robots import BUILTIN_ARMS, builtin_arm
+from .world import Box, Cylinder, Hazard, Polygon, Sphere, World
+
+__all__ = [
+    "EnergyScenario",
+    "load_scenario_data",
+    "parse_energy_scenario",
+    "builtin_scenarios",
+    "resolve_scenario",
+]
+
+MOTOR_PRESETS = {"paper": PAPER_MOTOR, "servo": SERVO_MOTOR}
+KINDS = ("energy", "dynamic2link")
+
+
+@dataclass
+class EnergyScenario:
+    """A parsed paper-000 scenario: everything needed to plan, nothing built yet but the arm."""
+
+    name: str
+    description: str
+    arm: Arm
+    motor: DCMotor
+    kp: float | list[float]
+    kd: float | list[float]
+    feedforward: bool
+    world: World
+    options: RoadmapOptions
+    start: np.ndarray
+    goal: np.ndarray
+    sensor_range: float | None = None
+    hazard_penalty: float = math.inf
+    planner: str = "mpdstar"
+    source: str = ""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def drive(self) -> Drive:
+        return Drive(self.arm, self.motor, self.kp, self.kd, feedforward=self.feedforward)
+
+
+# --------------------------------------------------------------------------- files
+def builtin_scenarios() -> dict[str, Path]:
+    """Built-in scenario names → TOML files shipped inside the package."""
+    root = resources.files("mpd_pin") / "scenarios"
+    out = {}
+    for entry in root.iterdir():
+        if entry.name.endswith(".toml"):
+            out[entry.name[: -len(".toml")]] = Path(str(entry))
+    return dict(sorted(out.items()))
+
+
+def resolve_scenario(name_or_path: str) -> Path:
+    """A built-in scenario name or a path to a ``.toml`` file → the file path."""
+    builtins = builtin_scenarios()
+    if name_or_path in builtins:
+        return builtins[name_or_path]
+    path = Path(name_or_path)
+    if path.is_file():
+        return path
+    raise ConfigError(
+        f"unknown scenario {name_or_path!r}: not a built-in ({', '.join(builtins)}) and not a file"
+    )
+
+
+def load_scenario_data(path: Path) -> dict[str, Any]:
+    """Parse a TOML file; malformed TOML raises ConfigError with the line."""
+    try:
+        with open(path, "rb") as f:
+            data = tomllib.load(f)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"malformed TOML in {str(path)!r}: {exc}") from None
+    except OSError as exc:
+        raise ConfigError(f"cannot read scenario {str(path)!r}: {exc.strerror}") from None
+    kind = data.get("kind", "energy")
+    if kind not in KINDS:
+        raise ConfigError(f"kind: {kind!r} is not one of {list(KINDS)}")
+    return data
+
+
+# --------------------------------------------------------------------------- parts
+def _arm(t: Table, base: Path | None) -> Arm:
+    choices = [k for k in ("builtin", "urdf", "example_robot_data") if t.has(k)]
+    if len(choices) != 1:
+        raise ConfigError(f"{t.path}: give exactly one of builtin, urdf, example_robot_data")
+    kind = choices[0]
+    if kind == "builtin":
+        arm = builtin_arm(t.string("builtin", choices=BUILTIN_ARMS))
+    elif kind == "urdf":
+        rel = Path(t.string("urdf"))
+        path = rel if rel.is_absolute() or base is None else base / rel
+        arm = Arm.from_urdf(path)
+    else:
+        arm = Arm.from_example_robot_data(t.string("example_robot_data"))
+    t.done()
+    return arm
+
+
+def _motor(t: Table) -> DCMotor:
+    base = MOTOR_PRESETS[t.string("preset", "paper", choices=MOTOR_PRESETS)]
+    fields = {}
+    for name in ("R", "L", "Kt", "Ke", "B", "J", "gear_ratio"):
+        if t.has(name):
+            fields[name] = t.number(name)
+    if t.has("v_max"):
+        fields["v_max"] = t.number("v_max", positive=True)
+    t.done()
+    return replace(base, **fields)
+
+
+def _gain(t: Table, key: str, default: float, nq: int) -> float | list[float]:
+    val = t.numbers(key, default)
+    if isinstance(val, list) and len(val) != nq:
+        raise ConfigError(f"{t.path}.{key}: expected one value or {nq} values, got {len(val)}")
+    vals = [val] if isinstance(val, float) else val
+    if any(v < 0 for v in vals):
+        raise ConfigError(f"{t.path}.{key}: gains must be ≥ 0, got {val}")
+    return val
+
+
+def _options(t: Table) -> RoadmapOptions:
+    d = RoadmapOptions()
+    kw: dict[str, Any] = {}
+    for name in ("num_nodes", "k", "seed", "max_attempts"):
+        kw[name] = t.integer(name, getattr(d, name), minimum=0 if name != "k" else 1)
+    for name in (
+        "resolution",
+        "duration",
+        "joint_speed",
+        "duration_quantum",
+        "min_duration",
+        "max_duration",
+        "dt",
+    ):
+        kw[name] = t.number(name, getattr(d, name), positive=True)
+    kw["duration_rule"] = t.string("duration_rule", d.duration_rule, choices=("fixed", "distance"))
+    t.done()
+    try:
+        return RoadmapOptions(**kw)
+    except ValueError as exc:
+        raise ConfigError(f"{t.path}: {exc}") from None
+
+
+def _shape(t: Table):
+    """One obstacle/hazard shape from planar or 3-D keys."""
+    kind = t.string("type", choices=("box", "cylinder", "sphere", "polygon"))
+    name = t.string("name", "")
+    hidden = t.boolean("hidden", False)
+    try:
+        if kind == "box":
+            if t.has("center"):
+                shape = Box.planar(
+                    t.vector("center", length=2),
+                    t.number("width", positive=True),
+                    t.number("height", positive=True),
+                    angle=t.number("angle", 0.0),
+                    depth=t.number("depth", 1.0, positive=True),
+                    name=name,
+                    hidden=hidden,
+                )
+            else:
+                shape = Box(
+                    size=t.vector("size", length=3),
+                    position=t.vector("position", [0.0, 0.0, 0.0], length=3),
+                    rpy=t.vector("rpy", [0.0, 0.0, 0.0], length=3),
+                    name=name,
+                    hidden=hidden,
+                )
+        elif kind == "cylinder":
+            if t.has("center"):
+                shape = Cylinder.planar(
+                    t.vector("center", length=2),
+                    t.number("radius", positive=True),
+                    depth=t.number("depth", 1.0, positive=True),
+                    name=name,
+                    hidden=hidden,
+                )
+            else:
+                shape = Cylinder(
+                    radius=t.number("radius", positive=True),
+                    length=t.number("length", positive=True),
+                    position=t.vector("position", [0.0, 0.0, 0.0], length=3),
+                    rpy=t.vector("rpy", [0.0, 0.0, 0.0], length=3),
+                    name=name,
+                    hidden=hidden,
+                )
+        elif kind == "sphere":
+            pos = (
+                [t.vector("center", length=2)[0], 0.0, t.vector("center", length=2)[1]]
+                if t.has("center")
+                else t.vector("position", length=3)
+            )
+            shape = Sphere(
+                radius=t.number("radius", positive=True), position=pos, name=name, hidden=hidden
+            )
+        else:
+            verts = t.raw("vertices")
+            if not isinstance(verts, list) or not all(
+                isinstance(v, list) and len(v) == 2 for v in verts
+            ):
+                raise ConfigError(f"{t.path}.vertices: expected an array of [x, z] pairs")
+            shape = Polygon.planar(
+                verts, depth=t.number("depth", 1.0, positive=True), name=name, hidden=hidden
+            )
+    except ConfigError:
+        raise
+    except ValueError as exc:
+        raise ConfigError(f"{t.path}: {exc}") from None
+    return shape
+
+
+def _endpoint(t: Table, key: str, arm: Arm, world: World, ik_seed: int) -> np.ndarray:
+    from .ik import solve_position_ik
+
+    if t.has(key) and t.has(f"{key}_ee"):
+        raise ConfigError(f"{t.path}: give {key} or {key}_ee, not both")
+    if t.has(key):
+        q = np.array(t.vector(key, length=arm.nq))
+        return q
+    target = t.vector(f"{key}_ee")
+    if len(target) == 2:
+        target = [target[0], 0.0, target[1]]
+    if len(target) != 3:
+        raise ConfigError(f"{t.path}.{key}_ee: expected [x, z] or [x, y, z]")
+    frame = t.string("ee_frame", "ee" if arm.model.existFrame("ee") else arm.model.frames[-1].name)
+    try:
+        return solve_position_ik(arm, frame, np.array(target), world=world, seed=ik_seed)
+    except ValueError as exc:
+        raise ConfigError(f"{t.path}.{key}_ee: {exc}") from None
+
+
+def parse_energy_scenario(
+    data: dict[str, Any], *, source: str = "", base_dir: Path | None = None, seed: int | None = None
+) -> EnergyScenario:
+    """Validate and build a ``kind = "energy"`` scenario from parsed TOML (ConfigError if bad)."""
+    top = Table(data, "")
+    kind = top.string("kind", "energy")
+    if kind != "energy":
+        raise ConfigError(f"kind: expected 'energy', got {kind!r}")
+    name = top.string("name", Path(source).stem if source else "scenario")
+    description = top.string("description", "")
+    arm = _arm(top.table("arm", required=True), base_dir)
+    motor_t = top.table("motor")
+    try:
+        motor = _motor(motor_t)
+    except ValueError as exc:
+        raise ConfigError(f"motor: {exc}") from None
+    ctl = top.table("controller")
+    kp = _gain(ctl, "kp", 40.0, arm.nq)
+    kd = _gain(ctl, "kd", 4.0, arm.nq)
+    ff = ctl.boolean("feedforward", True)
+    ctl.done()
+    options = _options(top.table("roadmap"))
+    if seed is not None:
+        options = replace(options, seed=int(seed))
+    obstacles = []
+    for t in top.tables("obstacles"):
+        obstacles.append(_shape(t))
+        t.done()
+    hazards = []
+    for t in top.tables("hazards"):
+        clearance = t.number("clearance", 0.0, nonnegative=True)
+        hazards.append(Hazard(_shape(t), clearance))
+        t.done()
+    try:
+        world = World(tuple(obstacles), tuple(hazards))
+    except ValueError as exc:
+        raise ConfigError(f"obstacles: {exc}") from None
+    sensor = top.table("sensor")
+    sensor_range = sensor.number("range", None, nonnegative=True)
+    sensor.done()
+    if world.hidden_names() and sensor_range is None:
+        raise ConfigError("sensor.range: required when some obstacles are hidden")
+    planner_t = top.table("planner")
+    planner = planner_t.string(
+        "algorithm", "mpdstar", choices=("mpdstar", "dstar", "astar", "dijkstra")
+    )
+    penalty = planner_t.number("hazard_penalty", math.inf)
+    if not penalty >= 1.0:
+        raise ConfigError(f"planner.hazard_penalty: must be ≥ 1 (inf removes edges), got {penalty}")
+    planner_t.done()
+    task = top.table("task", required=True)
+    ik_seed = task.integer("ik_seed", 0)
+    start = _endpoint(task, "start", arm, world, ik_seed)
+    goal = _endpoint(task, "goal", arm, world, ik_seed + 1)
+    task.done()
+    top.done()
+    return EnergyScenario(
+        name=name,
+        description=description,
+        arm=arm,
+        motor=motor,
+        kp=kp,
+        kd=kd,
+        feedforward=ff,
+        world=world,
+        options=options,
+        start=start,
+        goal=goal,
+        sensor_range=sensor_range,
+        hazard_penalty=penalty,
+        planner=planner,
+        source=source,
+    )

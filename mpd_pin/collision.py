@@ -151,7 +151,8 @@ class CollisionChecker:
         If True, configurations closer than a hazard's ``clearance`` to it are
         invalid; if False (default) hazards only may not be entered.
     margin:
-        Security margin (m) for obstacle and self-collision pairs; 0 = exact.
+        Security margin (m) for every pair (obstacles, hazards, self); 0 = exact.
+        An enforced hazard clearance larger than ``margin`` replaces it.
     num_threads:
         Threads for the batch queries (default: number of CPUs).
     single_backend:
@@ -303,7 +304,8 @@ class CollisionChecker:
             if self._include_hidden or self.world.is_known(name):
                 active[idx] = True
                 haz[idx] = True
-            margins[idx] = self._clearance[name] if self._hazard_clearance else 0.0
+            clearance = self._clearance[name] if self._hazard_clearance else 0.0
+            margins[idx] = max(self.margin, clearance)
         return active, margins, dist, haz
 
     def _sync(self, force: bool = False) -> None:

@@ -168,6 +168,9 @@ def test_is_free_matches_brute_force(name, backend):
     if len(spec.lengths) >= 3:
         assert np.any((selfd < -1e-3) & (obs > 1e-3))
     np.testing.assert_array_equal(checker.is_free_batch(Q), free)
+    if backend == "pairs":  # a security margin m: free exactly when the distance exceeds m
+        wide = CollisionChecker(arm, world, margin=0.02).is_free_batch(Q)
+        assert not np.any((wide != (sd > 0.02)) & (np.abs(sd - 0.02) >= NEAR))
     print(f"{name} ({backend}): free {free.mean():.3f}, near-contact {near.sum()}, "
           f"disagreements {disagree.sum()}")
 
@@ -285,6 +288,12 @@ def test_batch_equals_loop_and_hidden_obstacles():
     assert not checker.is_free(q_wall)
     checker.set_include_hidden(False)
     assert checker.is_free(q_wall)
+    twin = checker.copy()
+    assert twin is not checker and twin.geom_data is not checker.geom_data
+    np.testing.assert_array_equal(twin.is_free_batch(Q), loop)
+    # a security margin only removes configurations
+    wide = CollisionChecker(arm, world, margin=0.05)
+    assert np.all(wide.is_free_batch(Q) <= loop) and wide.is_free_batch(Q).sum() < loop.sum()
 
 
 def test_edges():
@@ -354,6 +363,14 @@ def test_panda_box():
     hand = np.array(arm.frame_position(q_ref, "panda_hand_tcp"))
     moved = World([Box((0.2, 0.2, 0.2), tuple(hand), name="box")])
     assert not CollisionChecker(arm, moved).is_free(q_ref)
+    # links 4-6 reach through the box; with the shoulder lower the fingers hit the floor
+    q_box, q_floor = q_ref.copy(), q_ref.copy()
+    q_box[[1, 3]] = (1.0, -1.0)
+    q_floor[[1, 3]] = (1.5, -1.0)
+    assert not checker.is_free(q_box) and not checker.is_free(q_floor)
+    assert {b for _, b in checker.in_collision_pairs(q_box)} == {"obstacle:box"}
+    assert {b for _, b in checker.in_collision_pairs(q_floor)} == {"obstacle:floor"}
+    assert checker.in_collision_pairs(q_ref) == []
     rng = np.random.default_rng(4)
     Q = rng.uniform(arm.lower_limits, arm.upper_limits, size=(300, arm.nq))
     loop = np.array([checker.is_free(q) for q in Q])

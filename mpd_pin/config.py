@@ -78,9 +78,10 @@ class Table:
     def number(
         self, key: str, default: Any = ..., *, positive: bool = False, nonnegative: bool = False
     ) -> float:
-        val = self.raw(key, default)
-        if val is None and default is None:
-            return None  # type: ignore[return-value]
+        if key not in self.data and default is not ...:
+            self.seen.add(key)
+            return default  # defaults are trusted (may be None or inf)
+        val = self.raw(key)
         if isinstance(val, bool) or not isinstance(val, (int, float)):
             raise ConfigError(f"{self._name(key)}: expected a number, got {val!r}")
         val = float(val)

@@ -30,8 +30,9 @@ def solve_position_ik(
     """A configuration (rad) within joint limits putting ``frame`` at ``target`` (m).
 
     Damped least squares ``Δq = Jᵀ (J Jᵀ + λ I)⁻¹ e`` on the frame position, from
-    the arm's reference posture and then from seeded random starts. With
-    ``world``, the first collision-free solution is returned. Raises ValueError
+    the arm's reference posture and then from seeded random starts. Of the
+    solutions found (collision-free ones only, with ``world``), the one farthest
+    from the joint limits (relative to each joint's range) is returned. Raises ValueError
     if no start converges to within ``tol`` m (unreachable target) or if every
     solution found collides.
     """
@@ -52,6 +53,7 @@ def solve_position_ik(
     starts = [np.clip(arm.q_reference, lo, hi)] + [rng.uniform(lo, hi) for _ in range(restarts)]
     converged = 0
     best = np.inf
+    solutions: list[np.ndarray] = []
     for q in starts:
         q = q.copy()
         for _ in range(iterations):
@@ -68,7 +70,11 @@ def solve_position_ik(
         if res < tol:
             converged += 1
             if checker is None or checker.is_free(q):
-                return q
+                solutions.append(q)
+    if solutions:
+        # The most interior solution: farthest (relatively) from every joint limit.
+        mid, half = (lo + hi) / 2, np.maximum((hi - lo) / 2, 1e-12)
+        return min(solutions, key=lambda q: float(np.max(np.abs(q - mid) / half)))
     if converged == 0:
         raise ValueError(
             f"target {target.tolist()} is out of reach of frame {frame!r} "

@@ -1,0 +1,7 @@
+"""``python -m mpd_pin`` runs the ``mpd-pin`` command."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

@@ -132,6 +132,9 @@ def plot_arm_path(
         ):
             tr = _ee_trace(arm, np.asarray(Qo, float))
             ax.plot(tr[:, 0], tr[:, 2], "--", color=col, lw=1.5, label=name)
+            for q in np.asarray(Qo, float):
+                p = arm_points(arm, q)
+                ax.plot(p[:, 0], p[:, 2], ":", color=col, lw=1.2, alpha=0.8)
         ax.plot([0], [0], "ks", ms=8)
         reach = np.max(np.linalg.norm(arm_points(arm, Q_nodes[0])[:, [0, 2]], axis=1)) * 1.1
         reach = max(reach, float(np.max(np.abs(trace[:, [0, 2]]))) * 1.1)

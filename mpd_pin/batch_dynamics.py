@@ -92,13 +92,23 @@ def _skew(p: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -p[2], p[1]], [p[2], 0.0, -p[0]], [-p[1], p[0], 0.0]])
 
 
-def _cross_force_matrix(v: np.ndarray) -> np.ndarray:
-    """6×6 matrix of v×* (v = (u, ω), forces (f, n))."""
-    out = np.zeros((6, 6))
-    out[:3, :3] = _skew(v[3:])
-    out[3:, 3:] = _skew(v[3:])
-    out[3:, :3] = _skew(v[:3])
+def _basis_cross_force() -> np.ndarray:
+    """(6, 6, 6) array: [k] is the matrix of e_k ×* (motion e_k = (u, ω) basis vector)."""
+    out = np.zeros((6, 6, 6))
+    for k in range(6):
+        e = np.zeros(6)
+        e[k] = 1.0
+        out[k, :3, :3] = _skew(e[3:])
+        out[k, 3:, 3:] = _skew(e[3:])
+        out[k, 3:, :3] = _skew(e[:3])
     return out
+
+
+_CROSS_FORCE = _basis_cross_force()
+_MONO_A = np.array([a for a, _ in _MONOMIALS])
+_MONO_B = np.array([b for _, b in _MONOMIALS])
+_MONO_MASK = np.zeros((6, 6), dtype=bool)  # monomials v_k v_l (either order) that we form
+_MONO_MASK[_MONO_A, _MONO_B] = _MONO_MASK[_MONO_B, _MONO_A] = True
 
 
 def _frame_with_z(axis: np.ndarray) -> np.ndarray:
@@ -150,29 +160,20 @@ def _joint_axis(model: pin.Model, i: int) -> tuple[bool, np.ndarray]:
 
 
 def _force_matrices(i6: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """[I | Q] and [I | Q'] with v ×* I v = Q · monomials(v) and d/dt of it = Q' · terms."""
+    """lf = [I | Q], lfd = [I | Q'] with v ×* I v = Q · monomials(v), its derivative Q' · terms.
 
-    def quad(v):
-        return _cross_force_matrix(v) @ i6 @ v
-
-    eye = np.eye(6)
-    q = np.zeros((6, _N_MONO))
-    for k, (a, b) in enumerate(_MONOMIALS):
-        if a == b:
-            q[:, k] = quad(eye[a])
-        else:
-            q[:, k] = quad(eye[a] + eye[b]) - quad(eye[a]) - quad(eye[b])
-    # check that no other monomial (u_k u_l, u_k ω_k) is needed
-    rng = np.random.default_rng(12345)
-    for _ in range(3):
-        v = rng.normal(size=6)
-        mono = np.array([v[a] * v[b] for a, b in _MONOMIALS])
-        ref = quad(v)
-        if not np.allclose(q @ mono, ref, rtol=1e-12, atol=1e-12 * (1.0 + np.abs(i6).max())):
-            raise AssertionError("internal error: unexpected structure of v ×* I v")
-    # derivative terms: squares -> a_k v_k (coefficient doubled); products ab -> a'b and ab'
-    qd = np.concatenate([2.0 * q[:, :_N_SQUARES], q[:, _N_SQUARES:], q[:, _N_SQUARES:]], axis=1)
-    return np.concatenate([i6, q], axis=1), np.concatenate([i6, qd], axis=1)
+    i6: (n, 6, 6) spatial inertias; returns (n, 6, 18) and (n, 6, 27).
+    """
+    # v ×* I v = Σ_kl t[r, k, l] v_k v_l with t[:, :, k, l] = (e_k ×* I)[:, l]
+    t = np.einsum("krm,nml->nrkl", _CROSS_FORCE, i6)
+    sym = t + t.transpose(0, 1, 3, 2)
+    if np.abs(sym[:, :, ~_MONO_MASK]).max(initial=0.0) > 1e-12 * max(1.0, np.abs(i6).max()):
+        raise AssertionError("internal error: unexpected monomials in v ×* I v")
+    q = sym[:, :, _MONO_A, _MONO_B]
+    q[:, :, :_N_SQUARES] *= 0.5  # squares: t[k, k] counted twice in sym
+    # derivative terms: squares -> 2 a_k v_k; products v_a v_b -> a_a v_b and v_a a_b
+    qd = np.concatenate([2.0 * q[:, :, :_N_SQUARES], q[:, :, _N_SQUARES:], q[:, :, _N_SQUARES:]], 2)
+    return np.concatenate([i6, q], axis=2), np.concatenate([i6, qd], axis=2)
 
 
 def _prepare(model: pin.Model) -> tuple[list[_Joint], np.ndarray]:
@@ -180,34 +181,43 @@ def _prepare(model: pin.Model) -> tuple[list[_Joint], np.ndarray]:
     kinds = [_joint_axis(model, i) for i in range(1, model.njoints)]
     if model.nq != model.nv:  # pragma: no cover - excluded by the joint types above
         raise ValueError(f"rnea_with_derivative needs nq == nv, got nq={model.nq}, nv={model.nv}")
+    nj = model.njoints - 1
     frames = [np.eye(3)]  # R_a of each body's internal frame w.r.t. its Pinocchio frame
-    joints: list[_Joint] = []
+    xms = np.zeros((nj, 6, 6))
+    i6s = np.zeros((nj, 6, 6))
     for i in range(1, model.njoints):
-        revolute, axis = kinds[i - 1]
-        ra = _frame_with_z(axis)
+        ra = _frame_with_z(kinds[i - 1][1])
         frames.append(ra)
-        parent = model.parents[i]
         pl = model.jointPlacements[i]
-        rp = frames[parent]
+        rp = frames[model.parents[i]]
         rt = rp.T @ pl.rotation @ ra  # joint base frame, seen from the parent internal frame
-        pt = rp.T @ pl.translation
-        xm = np.zeros((6, 6))
-        xm[:3, :3] = rt.T
-        xm[:3, 3:] = -rt.T @ _skew(pt)
-        xm[3:, 3:] = rt.T
+        xm = xms[i - 1]
+        xm[:3, :3] = xm[3:, 3:] = rt.T
+        xm[:3, 3:] = -rt.T @ _skew(rp.T @ pl.translation)
         inr = model.inertias[i]
         m = inr.mass
-        c = ra.T @ inr.lever
-        cx = _skew(c)
-        i6 = np.zeros((6, 6))
+        cx = _skew(ra.T @ inr.lever)
+        i6 = i6s[i - 1]
         i6[:3, :3] = m * np.eye(3)
         i6[:3, 3:] = -m * cx
         i6[3:, :3] = m * cx
         i6[3:, 3:] = ra.T @ inr.inertia @ ra - m * cx @ cx
-        lf, lfd = _force_matrices(i6)
+    lfs, lfds = _force_matrices(i6s)
+    joints = []
+    for i in range(1, model.njoints):
         iv = model.joints[i].idx_v
+        xm = xms[i - 1]
         joints.append(
-            _Joint(parent, revolute, iv, float(model.armature[iv]), xm, xm.T.copy(), lf, lfd)
+            _Joint(
+                model.parents[i],
+                kinds[i - 1][0],
+                iv,
+                float(model.armature[iv]),
+                xm,
+                xm.T.copy(),
+                lfs[i - 1],
+                lfds[i - 1],
+            )
         )
     _check_kinematics(model, joints, frames)
     return joints, -np.asarray(model.gravity.vector, dtype=float)
@@ -218,6 +228,7 @@ def _check_kinematics(model: pin.Model, joints: list[_Joint], frames: list[np.nd
     data = model.createData()
     q = np.linspace(0.3, 0.9, model.nq)
     pin.forwardKinematics(model, data, q)
+    worst = 0.0
     for k, jt in enumerate(joints):
         i = k + 1
         ra = frames[i]
@@ -231,11 +242,13 @@ def _check_kinematics(model: pin.Model, joints: list[_Joint], frames: list[np.nd
             pj = ra[:, 2] * qi
         pl = model.jointPlacements[i]
         ref = data.liMi[i]
-        ok = np.allclose(pl.rotation @ rj, ref.rotation, atol=1e-12) and np.allclose(
-            pl.translation + pl.rotation @ pj, ref.translation, atol=1e-12
+        worst = max(
+            worst,
+            np.abs(pl.rotation @ rj - ref.rotation).max(),
+            np.abs(pl.translation + pl.rotation @ pj - ref.translation).max(),
         )
-        if not ok:  # pragma: no cover - would mean a Pinocchio joint convention changed
-            raise ValueError(f"joint {i} ({model.names[i]}): unexpected joint kinematics")
+    if worst > 1e-12:  # pragma: no cover - would mean a Pinocchio joint convention changed
+        raise ValueError("unexpected joint kinematics (Pinocchio convention changed?)")
 
 
 def _as_batch(x, nv: int, name: str) -> np.ndarray:
@@ -244,8 +257,6 @@ def _as_batch(x, nv: int, name: str) -> np.ndarray:
         arr = arr[:, None]
     if arr.ndim != 2 or arr.shape[0] != nv:
         raise ValueError(f"{name} must have shape (nv, B) = ({nv}, B), got {np.shape(x)}")
-    if arr.strides[1] != arr.itemsize:  # rows must be contiguous for fast elementwise ops
-        arr = np.ascontiguousarray(arr)
     return arr
 
 
@@ -271,8 +282,7 @@ def rnea_with_derivative(
     Only 1-DoF revolute and prismatic joints (any axis) are supported; anything
     else raises ValueError.  ``chunk`` is the number of configurations processed
     together (the default was chosen by measurement on the Panda).  ``out`` may
-    give two preallocated float64 (nv, B) arrays with contiguous rows to write
-    into (saves allocating and first-touching ~2·8·nv·B bytes per call).
+    give two preallocated float64 (nv, B) arrays to write into.
     """
     joints, a0 = _prepare(model)
     nv = model.nv
@@ -292,28 +302,12 @@ def rnea_with_derivative(
     else:
         tau, tau_dot = out
         for o in (tau, tau_dot):
-            if (
-                not isinstance(o, np.ndarray)
-                or o.dtype != np.float64
-                or o.shape != (nv, batch)
-                or o.strides[1] != o.itemsize
-            ):
-                raise ValueError("out must be two float64 (nv, B) arrays with contiguous rows")
+            if not isinstance(o, np.ndarray) or o.dtype != np.float64 or o.shape != (nv, batch):
+                raise ValueError(f"out must be two float64 arrays of shape ({nv}, {batch})")
     if batch:
-        ws = _Workspace(joints, nv, min(chunk, batch))
-        for start in range(0, batch, chunk):
-            sl = slice(start, min(start + chunk, batch))
-            _rnea3_chunk(
-                joints,
-                a0,
-                Q[:, sl],
-                V[:, sl],
-                A[:, sl],
-                Jerk[:, sl],
-                tau[:, sl],
-                tau_dot[:, sl],
-                ws,
-            )
+        plan = _Plan(joints, a0, nv, min(chunk, batch))
+        for start in range(0, batch, plan.nb):
+            plan.run(Q, V, A, Jerk, tau, tau_dot, start)
     if squeeze:
         return tau[:, 0], tau_dot[:, 0]
     return tau, tau_dot
@@ -389,216 +383,292 @@ def _sincos(q: np.ndarray, cos: np.ndarray, sin: np.ndarray, tmp: np.ndarray) ->
     c -= r
 
 
-# rows of a body's motion buffer: 6 motion rows, then the monomial rows
-_ROWS = 6 + 2 * _N_MONO - _N_SQUARES  # 27
+# Internal row order of a 6-vector: (u_x, ω_x, u_y, ω_y, u_z, ω_z), so that the pairs
+# a rotation about z or a cross product with e_z mixes are adjacent rows.
+_PERM = np.array([0, 3, 1, 4, 2, 5])  # internal row r holds Pinocchio component _PERM[r]
+_ROW = np.argsort(_PERM)  # Pinocchio component i sits in internal row _ROW[i]
+_N_EXTRA = _N_MONO  # rows after the 6 motion rows of the a- and j-blocks
 
 
-class _Workspace:
-    """Flat scratch memory for chunks of up to ``cap`` configurations."""
+def _row_slice(indices) -> slice:
+    rows = [int(_ROW[i]) for i in indices]
+    step = rows[1] - rows[0] if len(rows) > 1 else 1
+    assert rows == list(range(rows[0], rows[-1] + 1, step)), rows
+    return slice(rows[0], rows[-1] + 1, step)
 
-    def __init__(self, joints: list[_Joint], nv: int, cap: int):
+
+# the monomial groups as (first rows, second rows) slices in internal row order
+_MONO_SLICES = [
+    (_row_slice(range(a0, a1)), _row_slice(range(b0, b1))) for (a0, a1), (b0, b1) in _MONO_GROUPS
+]
+
+# OpenBLAS multithreads a GEMM above about m·n·k = 2^18; for these skinny products
+# the extra thread only adds synchronisation (and, on a busy machine, spin-waits
+# that cost far more than the product).  Keep every call below that size.
+_GEMM_MAX_MNK = 1 << 18
+
+
+class _Plan:
+    """Fixed buffers for ``nb`` configurations and the recorded sequence of numpy calls.
+
+    All intermediate arrays are views into buffers allocated once, so the whole
+    chunk computation is a list of (function, arguments) replayed per chunk:
+    Python only dispatches, it never slices or allocates inside the loop.  The
+    operands are laid out so that almost every call works on contiguous blocks
+    of the same shape (numpy's fast path).
+    """
+
+    def __init__(self, joints: list[_Joint], a0: np.ndarray, nv: int, nb: int):
+        self.nb = nb
+        self.tape: list[tuple] = []
         nj = len(joints)
-        self.cap = cap
-        # children of each body; a body's motion buffer is recycled after its last child
+        z = np.zeros  # zero-filled: padding columns of a last, short chunk stay finite
+        self.inputs = z((4, nv, nb))  # q, q̇, q̈, q⃛
+        self.outputs = z((2, nv, nb))  # τ, τ̇
+        self.trig = z((5, nv, nb))  # cos q, sin q, 3 scratch rows for _sincos
+        self.pairs = z((4, nv, 2, nb))  # cos q, sin q, q̇, q̈ of each joint, on 2 rows each
+        self.forces = z((nj, 2, 6, nb))  # per body: (F, Ḟ) x 6 internal rows
+        self.scratch = z((8, nb))
+        self.xf_out = z((2, 6, nb))
+        # motion buffers (blocks v, a, j) x (6 motion rows + 12 extra rows); a body's is
+        # recycled once its last child has read it
         last_child = [0] * (nj + 1)
         for k, jt in enumerate(joints):
             last_child[jt.parent] = k + 1
-        self.last_child = last_child
         live: set[int] = set()
         peak = 0
         for body in range(1, nj + 1):
             live.add(body)
             peak = max(peak, len(live))
             live = {b for b in live if last_child[b] > body}
-        self.n_motion = peak
-        self.motion = np.empty(peak * _ROWS * 3 * cap)
-        self.force = np.empty(nj * 12 * cap)
-        self.trig = np.empty(5 * nv * cap)
-        self.scratch = np.empty(24 * cap)
-        self.xf_out = np.empty(12 * cap)
+        self.motion = z((peak, 3, 6 + _N_EXTRA, nb))
+        free = list(range(peak))
+        owner: dict[int, int] = {}
+        a0p = a0[_PERM]
+        for k, jt in enumerate(joints):
+            body = k + 1
+            owner[body] = free.pop()
+            parent = None
+            if jt.parent:
+                parent = self.motion[owner[jt.parent]]
+                if last_child[jt.parent] == body:
+                    free.append(owner.pop(jt.parent))
+            self._forward(k, jt, a0p, parent, self.motion[owner[body]])
+            if last_child[body] == 0:
+                free.append(owner.pop(body))
+        for k in range(nj - 1, -1, -1):
+            self._backward(k, joints[k])
 
-    def motion_buffer(self, i: int, nb: int) -> np.ndarray:
-        size = _ROWS * 3 * nb
-        return self.motion[i * size : (i + 1) * size].reshape(_ROWS, 3, nb)
+    # ---------------------------------------------------------------- recording
+    def _do(self, fn, *args) -> None:
+        self.tape.append((fn, args))
 
+    def _gemm(self, mat: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
+        """out = mat @ x (x, out: stacks of matrices), in column blocks keeping BLAS 1-threaded."""
+        step = max(256, _GEMM_MAX_MNK // mat.size)
+        for c0 in range(0, x.shape[-1], step):
+            self._do(np.matmul, mat, x[..., c0 : c0 + step], out[..., c0 : c0 + step])
 
-# OpenBLAS multithreads a GEMM above about m·n·k = 2^18; for these skinny products
-# the extra thread only adds synchronisation (and, with busy cores, spin-waits that
-# cost more than the product).  Keep every call below that size.
-_GEMM_MAX_MNK = 1 << 18
+    @staticmethod
+    def _internal(mat: np.ndarray) -> np.ndarray:
+        out = np.array(mat)
+        out[:6] = out[_PERM]
+        out[:, :6] = out[:, _PERM]
+        return out
 
-
-def _gemm(mat: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
-    """out = mat @ x, split into column blocks so that BLAS stays single-threaded."""
-    cols = x.shape[1]
-    step = max(256, _GEMM_MAX_MNK // mat.size)
-    if cols <= step:
-        np.matmul(mat, x, out=out)
-        return
-    for c0 in range(0, cols, step):
-        np.matmul(mat, x[:, c0 : c0 + step], out=out[:, c0 : c0 + step])
-
-
-def _rnea3_chunk(joints, a0, q, qd, qdd, qddd, tau, tau_dot, ws: _Workspace) -> None:
-    nb = q.shape[1]
-    nj = len(joints)
-    nv = q.shape[0]
-    trig = ws.trig[: 5 * nv * nb].reshape(5, nv, nb)
-    cos, sin = trig[0], trig[1]
-    _sincos(q, cos, sin, trig[2:])
-    forces = ws.force[: nj * 12 * nb].reshape(nj, 6, 2, nb)  # per body: rows 6, blocks F, Ḟ
-    scr = ws.scratch[: 24 * nb]
-    t6a = scr[: 6 * nb].reshape(2, 3, nb)
-    t6b = scr[6 * nb : 12 * nb].reshape(2, 3, nb)
-    t2a, t2b, t2c, w2, wd2, _ = scr[12 * nb :].reshape(6, 2, nb)
-    free = list(range(ws.n_motion))
-    owner: dict[int, int] = {}  # body -> its motion buffer
-    for k, jt in enumerate(joints):
-        body = k + 1
-        owner[body] = free.pop()
-        big = ws.motion_buffer(owner[body], nb)  # rows: motion (6) + monomials; blocks v, a, j
-        w = big[:6]
+    def _forward(self, k: int, jt: _Joint, a0p: np.ndarray, parent, w: np.ndarray) -> None:
+        """Record v, a, j of body k (internal frame), then its f and ḟ."""
+        do = self._do
         iv = jt.iv
-        wi, wdi, wddi = qd[iv], qdd[iv], qddd[iv]
-        # parent's (v, a, j) in this joint's base frame: one BLAS product for all three
-        if jt.parent == 0:
-            w[:, 0] = 0.0
-            w[:, 1] = (jt.xm @ a0)[:, None]
-            w[:, 2] = 0.0
+        q, qd, qdd, qddd = self.inputs[:, iv]
+        c2, s2, w2, wd2 = self.pairs[:, iv]
+        sc = self.scratch
+        t2a, t2b, t2c = sc[0:2], sc[2:4], sc[4:6]
+        if parent is None:
+            self._root_motion(jt, self._internal(jt.xm) @ a0p, w, q, qd, qdd, qddd, k)
         else:
-            parent_big = ws.motion_buffer(owner[jt.parent], nb)
-            _gemm(jt.xm, parent_big[:6].reshape(6, 3 * nb), w.reshape(6, 3 * nb))
-            if ws.last_child[jt.parent] == body:
-                free.append(owner.pop(jt.parent))
-        w4 = w.reshape(2, 3, 3, nb)  # [lin/ang, xyz, v/a/j, batch]
-        x = w4[:, 0]  # (2, 3, nb): x components (linear, angular) of v, a, j
-        y = w4[:, 1]
-        if jt.revolute:
-            c, s = cos[iv], sin[iv]
-            # into the body frame, Rz(q)^T: x' = c x + s y,  y' = c y - s x
-            np.multiply(x, s, out=t6a)
-            x *= c
-            np.multiply(y, s, out=t6b)
-            x += t6b
-            y *= c
-            y -= t6a
-            # with s = q̇ e_ωz:  m × s = q̇ (m_y, -m_x, 0) on the (linear, angular) pairs
-            #   a += q̇ ⊥v;  j += q̇ ⊥(a_before + a_after) + q̈ ⊥v
-            np.copyto(w2, wi)
-            np.copyto(wd2, wdi)
-            vx, vy, ax, ay, jx, jy = x[:, 0], y[:, 0], x[:, 1], y[:, 1], x[:, 2], y[:, 2]
-            np.multiply(vx, w2, out=t2a)
-            np.multiply(vy, w2, out=t2b)
-            np.multiply(ay, 2.0, out=t2c)
-            t2c -= t2a
-            t2c *= w2
-            jx += t2c
-            np.multiply(vy, wd2, out=t2c)
-            jx += t2c
-            np.multiply(ax, 2.0, out=t2c)
-            t2c += t2b
-            t2c *= w2
-            jy -= t2c
-            np.multiply(vx, wd2, out=t2c)
-            jy -= t2c
-            ax += t2b
-            ay -= t2a
-            w[5, 0] += wi
-            w[5, 1] += wdi
-            w[5, 2] += wddi
-        else:
-            qi = q[iv]
-            # shift by -q e_z: u' = u + q (ω_y, -ω_x, 0) for v, a and j
-            np.multiply(y[1], qi, out=t6a[0])
-            x[0] += t6a[0]
-            np.multiply(x[1], qi, out=t6a[0])
-            y[0] -= t6a[0]
-            # with s = q̇ e_uz:  m × s = q̇ (ω_y, -ω_x, 0, 0, 0, 0)
-            vwx, vwy, awx, awy = x[1, 0], y[1, 0], x[1, 1], y[1, 1]
-            t1 = t2a[0]
-            np.multiply(awy, 2.0 * wi, out=t1)
-            w[0, 2] += t1
-            np.multiply(vwy, wdi, out=t1)
-            w[0, 2] += t1
-            np.multiply(awx, 2.0 * wi, out=t1)
-            w[1, 2] -= t1
-            np.multiply(vwx, wdi, out=t1)
-            w[1, 2] -= t1
-            np.multiply(vwy, wi, out=t1)
-            w[0, 1] += t1
-            np.multiply(vwx, wi, out=t1)
-            w[1, 1] -= t1
-            w[2, 0] += wi
-            w[2, 1] += wdi
-            w[2, 2] += wddi
-        # body force f = [I|Q] [a; monomials(v)] and ḟ = [I|Q'] [j; d/dt monomials]
-        v, a = w[:, 0], w[:, 1]
-        mono, dmono = big[6 : 6 + _N_MONO, 1], big[6:, 2]
-        row = 0
-        for (a0_, a1_), (b0_, b1_) in _MONO_GROUPS:
-            n = a1_ - a0_
-            np.multiply(v[a0_:a1_], v[b0_:b1_], out=mono[row : row + n])
-            if row < _N_SQUARES:
-                np.multiply(a[a0_:a1_], v[b0_:b1_], out=dmono[row : row + n])
+            self._gemm(self._internal(jt.xm), parent[:, :6], w[:, :6])
+            if jt.revolute:
+                for b in range(3):  # into the body frame, Rz(q)^T: x' = c x + s y, y' = c y - s x
+                    x, y = w[b, 0:2], w[b, 2:4]  # (u_x, ω_x) and (u_y, ω_y)
+                    do(np.multiply, x, s2, t2a)
+                    do(np.multiply, x, c2, x)
+                    do(np.multiply, y, s2, t2b)
+                    do(np.add, x, t2b, x)
+                    do(np.multiply, y, c2, y)
+                    do(np.subtract, y, t2a, y)
+                # s = q̇ e_ωz:  m × s = q̇ (m_y, -m_x, 0) on both the linear and angular pair;
+                # a += q̇ ⊥v;  j += q̇ ⊥(a_before + a_after) + q̈ ⊥v
+                vx, vy, ax, ay, jx, jy = (w[b, r : r + 2] for b in range(3) for r in (0, 2))
+                do(np.multiply, vx, w2, t2a)
+                do(np.multiply, vy, w2, t2b)
+                do(np.add, ay, ay, t2c)
+                do(np.subtract, t2c, t2a, t2c)
+                do(np.multiply, t2c, w2, t2c)
+                do(np.add, jx, t2c, jx)
+                do(np.multiply, vy, wd2, t2c)
+                do(np.add, jx, t2c, jx)
+                do(np.add, ax, ax, t2c)
+                do(np.add, t2c, t2b, t2c)
+                do(np.multiply, t2c, w2, t2c)
+                do(np.subtract, jy, t2c, jy)
+                do(np.multiply, vx, wd2, t2c)
+                do(np.subtract, jy, t2c, jy)
+                do(np.add, ax, t2b, ax)
+                do(np.subtract, ay, t2a, ay)
+                for b, rate in enumerate((qd, qdd, qddd)):
+                    do(np.add, w[b, 5], rate, w[b, 5])
             else:
-                np.multiply(a[a0_:a1_], v[b0_:b1_], out=dmono[row : row + n])
-                r2 = row + _N_MONO - _N_SQUARES
-                np.multiply(v[a0_:a1_], a[b0_:b1_], out=dmono[r2 : r2 + n])
+                t1 = t2a[0]
+                for b in range(3):  # shift by -q e_z: u' = u + q (ω_y, -ω_x, 0)
+                    do(np.multiply, w[b, 3], q, t1)
+                    do(np.add, w[b, 0], t1, w[b, 0])
+                    do(np.multiply, w[b, 1], q, t1)
+                    do(np.subtract, w[b, 2], t1, w[b, 2])
+                # s = q̇ e_uz:  m × s = q̇ (ω_y, -ω_x, 0, 0, 0, 0)
+                # a += q̇ (ω_y, -ω_x, 0)(v);  j += 2 q̇ (α_y, -α_x, 0) + q̈ (ω_y, -ω_x, 0)
+                v, a, j = w[0], w[1], w[2]
+                for dst, op, terms in (
+                    (j[0], np.add, ((a[3], qd), (a[3], qd), (v[3], qdd))),
+                    (j[2], np.subtract, ((a[1], qd), (a[1], qd), (v[1], qdd))),
+                    (a[0], np.add, ((v[3], qd),)),
+                    (a[2], np.subtract, ((v[1], qd),)),
+                ):
+                    for src, rate in terms:
+                        do(np.multiply, src, rate, t1)
+                        do(op, dst, t1, dst)
+                for b, rate in enumerate((qd, qdd, qddd)):
+                    do(np.add, w[b, 4], rate, w[b, 4])
+        # f = [I|Q] [a; monomials(v)],  ḟ = [I|Q] [j; d/dt monomials(v)]: one stacked product
+        v, a = w[0], w[1]
+        mono, dmono, tmp = w[1, 6:], w[2, 6:], w[0, 6:]
+        row = 0
+        for sa, sb in _MONO_SLICES:
+            n = len(range(6)[sa])
+            do(np.multiply, v[sa], v[sb], mono[row : row + n])
+            do(np.multiply, a[sa], v[sb], dmono[row : row + n])
+            if row < _N_SQUARES:  # d/dt ω_k² = 2 α_k ω_k
+                do(np.add, dmono[row : row + n], dmono[row : row + n], dmono[row : row + n])
+            else:
+                do(np.multiply, v[sa], a[sb], tmp[:n])
+                do(np.add, dmono[row : row + n], tmp[:n], dmono[row : row + n])
             row += n
-        f = forces[k]
-        _gemm(jt.lf, big[: 6 + _N_MONO, 1], f[:, 0])
-        _gemm(jt.lfd, big[:, 2], f[:, 1])
-        if ws.last_child[body] == 0:  # a leaf: nobody needs its motion any more
-            free.append(owner.pop(body))
-    for k in range(nj - 1, -1, -1):
-        jt = joints[k]
-        f = forces[k]
-        iv = jt.iv
-        row = 5 if jt.revolute else 2
-        if jt.armature:
-            np.multiply(qdd[iv], jt.armature, out=tau[iv])
-            tau[iv] += f[row, 0]
-            np.multiply(qddd[iv], jt.armature, out=tau_dot[iv])
-            tau_dot[iv] += f[row, 1]
-        else:
-            tau[iv] = f[row, 0]
-            tau_dot[iv] = f[row, 1]
-        if jt.parent == 0:
-            continue
-        wi = qd[iv]
-        f4 = f.reshape(2, 3, 2, nb)
-        x = f4[:, 0]  # (2, 2, nb): [lin/ang, F/Ḟ]
-        y = f4[:, 1]
-        t4a = t6a.reshape(-1)[: 4 * nb].reshape(2, 2, nb)
-        t4b = t6b.reshape(-1)[: 4 * nb].reshape(2, 2, nb)
+        self._gemm(self._internal(jt.lf), w[1:3], self.forces[k])
+
+    def _root_motion(self, jt, ac, w, q, qd, qdd, qddd, k) -> None:
+        """v, a, j of a body whose parent is the fixed base (v = j = 0, a = ac)."""
+        do = self._do
+        c, s = self.trig[0, jt.iv], self.trig[1, jt.iv]
+        t1 = self.scratch[0]
+        do(np.copyto, w[:, :6], 0.0)
+        at, j = w[1], w[2]  # the base acceleration in the body frame: ac moved by q
         if jt.revolute:
-            # Ḟ += s ×* F with s = q̇ e_ωz: adds q̇ (-F_y, F_x, 0) to force and moment
-            np.copyto(w2, wi)
-            np.multiply(y[:, 0], w2, out=t2a)
-            x[:, 1] -= t2a
-            np.multiply(x[:, 0], w2, out=t2a)
-            y[:, 1] += t2a
-            # back to the joint base frame, Rz(q): x' = c x - s y,  y' = c y + s x
-            c, s = cos[iv], sin[iv]
-            np.multiply(x, s, out=t4a)
-            x *= c
-            np.multiply(y, s, out=t4b)
-            x -= t4b
-            y *= c
-            y += t4a
+            for lo in (0, 1):  # linear, angular: rotate by Rz(q)^T
+                cx, cy = ac[lo], ac[lo + 2]
+                for dst, cc, cs in ((at[lo], cx, cy), (at[lo + 2], cy, -cx)):
+                    if cc:
+                        do(np.multiply, c, cc, dst)
+                    if cs:
+                        do(np.multiply, s, cs, t1)
+                        do(np.add, dst, t1, dst)
+                if ac[lo + 4]:
+                    do(np.copyto, at[lo + 4], ac[lo + 4])
+            # v = q̇ e_ωz (so v × s = 0), a = at + q̈ e_ωz, j = 2 q̇ ⊥at + q⃛ e_ωz
+            do(np.copyto, w[0, 5], qd)
+            do(np.add, at[5], qdd, at[5])
+            for lo in (0, 1):
+                do(np.multiply, at[lo + 2], qd, j[lo])
+                do(np.add, j[lo], j[lo], j[lo])
+                do(np.multiply, at[lo], qd, j[lo + 2])
+                do(np.add, j[lo + 2], j[lo + 2], j[lo + 2])
+                do(np.negative, j[lo + 2], j[lo + 2])
+            do(np.copyto, j[5], qddd)
         else:
-            qi = q[iv]
+            # shift by -q e_z: u' = u + q (ω_y, -ω_x, 0); ω unchanged
+            for r in range(6):
+                if ac[r]:
+                    do(np.copyto, at[r], ac[r])
+            if ac[3]:
+                do(np.multiply, q, ac[3], t1)
+                do(np.add, at[0], t1, at[0])
+            if ac[1]:
+                do(np.multiply, q, ac[1], t1)
+                do(np.subtract, at[2], t1, at[2])
+            # v = q̇ e_uz, a = at + q̈ e_uz, j = 2 q̇ (α_y, -α_x, 0; 0) + q⃛ e_uz
+            do(np.copyto, w[0, 4], qd)
+            do(np.add, at[4], qdd, at[4])
+            if ac[3]:
+                do(np.multiply, qd, 2.0 * ac[3], j[0])
+            if ac[1]:
+                do(np.multiply, qd, -2.0 * ac[1], j[2])
+            do(np.copyto, j[4], qddd)
+
+    def _backward(self, k: int, jt: _Joint) -> None:
+        """Record τ_k, τ̇_k and the transfer of (F, Ḟ) of body k to its parent."""
+        do = self._do
+        iv = jt.iv
+        f = self.forces[k]
+        tau, tau_dot = self.outputs[:, iv]
+        row = 5 if jt.revolute else 4
+        if jt.armature:
+            qdd, qddd = self.inputs[2, iv], self.inputs[3, iv]
+            do(np.multiply, qdd, jt.armature, tau)
+            do(np.add, tau, f[0, row], tau)
+            do(np.multiply, qddd, jt.armature, tau_dot)
+            do(np.add, tau_dot, f[1, row], tau_dot)
+        else:
+            do(np.copyto, tau, f[0, row])
+            do(np.copyto, tau_dot, f[1, row])
+        if jt.parent == 0:
+            return
+        q, qd = self.inputs[0, iv], self.inputs[1, iv]
+        c2, s2, w2, _ = self.pairs[:, iv]
+        sc = self.scratch
+        t2a, t2b = sc[0:2], sc[2:4]
+        if jt.revolute:
+            # Ḟ += s ×* F with s = q̇ e_ωz: adds q̇ (-F_y, F_x, 0) to the force and the moment
+            do(np.multiply, f[0, 2:4], w2, t2a)
+            do(np.subtract, f[1, 0:2], t2a, f[1, 0:2])
+            do(np.multiply, f[0, 0:2], w2, t2a)
+            do(np.add, f[1, 2:4], t2a, f[1, 2:4])
+            for b in range(
+                2
+            ):  # back to the joint base frame, Rz(q): x' = c x - s y, y' = c y + s x
+                x, y = f[b, 0:2], f[b, 2:4]
+                do(np.multiply, x, s2, t2a)
+                do(np.multiply, x, c2, x)
+                do(np.multiply, y, s2, t2b)
+                do(np.subtract, x, t2b, x)
+                do(np.multiply, y, c2, y)
+                do(np.add, y, t2a, y)
+        else:
+            t1 = t2a[0]
             # Ḟ += s ×* F with s = q̇ e_uz: adds q̇ (-f_y, f_x, 0) to the moment
-            np.multiply(y[0, 0], wi, out=t2a[0])
-            x[1, 1] -= t2a[0]
-            np.multiply(x[0, 0], wi, out=t2a[0])
-            y[1, 1] += t2a[0]
-            # shift by +q e_z: n' = n + q e_z × f, for F and Ḟ
-            np.multiply(y[0], qi, out=t2a)
-            x[1] -= t2a
-            np.multiply(x[0], qi, out=t2a)
-            y[1] += t2a
-        fp = forces[jt.parent - 1].reshape(6, 2 * nb)
-        tmp = ws.xf_out[: 12 * nb].reshape(6, 2 * nb)
-        _gemm(jt.xf, f.reshape(6, 2 * nb), tmp)
-        fp += tmp
+            do(np.multiply, f[0, 2], qd, t1)
+            do(np.subtract, f[1, 1], t1, f[1, 1])
+            do(np.multiply, f[0, 0], qd, t1)
+            do(np.add, f[1, 3], t1, f[1, 3])
+            for b in range(2):  # shift by +q e_z: n' = n + q e_z × f
+                do(np.multiply, f[b, 2], q, t1)
+                do(np.subtract, f[b, 1], t1, f[b, 1])
+                do(np.multiply, f[b, 0], q, t1)
+                do(np.add, f[b, 3], t1, f[b, 3])
+        parent_f = self.forces[jt.parent - 1]
+        self._gemm(self._internal(jt.xf), f, self.xf_out)
+        do(np.add, parent_f, self.xf_out, parent_f)
+
+    # ------------------------------------------------------------------ running
+    def run(self, Q, V, A, Jerk, tau, tau_dot, start: int) -> None:
+        """Compute columns start : start + nb (or fewer, at the end) of τ and τ̇."""
+        n = min(self.nb, Q.shape[1] - start)
+        cols = slice(start, start + n)
+        inputs = self.inputs
+        for dst, src in zip(inputs, (Q, V, A, Jerk), strict=True):
+            np.copyto(dst[:, :n], src[:, cols])
+        _sincos(inputs[0], self.trig[0], self.trig[1], self.trig[2:])
+        np.copyto(self.pairs[0:2], self.trig[0:2, :, None, :])
+        np.copyto(self.pairs[2:4], inputs[1:3, :, None, :])
+        for fn, args in self.tape:
+            fn(*args)
+        np.copyto(tau[:, cols], self.outputs[0, :, :n])
+        np.copyto(tau_dot[:, cols], self.outputs[1, :, :n])

@@ -390,18 +390,6 @@ _ROW = np.argsort(_PERM)  # Pinocchio component i sits in internal row _ROW[i]
 _N_EXTRA = _N_MONO  # rows after the 6 motion rows of the a- and j-blocks
 
 
-def _row_slice(indices) -> slice:
-    rows = [int(_ROW[i]) for i in indices]
-    step = rows[1] - rows[0] if len(rows) > 1 else 1
-    assert rows == list(range(rows[0], rows[-1] + 1, step)), rows
-    return slice(rows[0], rows[-1] + 1, step)
-
-
-# the monomial groups as (first rows, second rows) slices in internal row order
-_MONO_SLICES = [
-    (_row_slice(range(a0, a1)), _row_slice(range(b0, b1))) for (a0, a1), (b0, b1) in _MONO_GROUPS
-]
-
 # OpenBLAS multithreads a GEMM above about m·n·k = 2^18; for these skinny products
 # the extra thread only adds synchronisation (and, on a busy machine, spin-waits
 # that cost far more than the product).  Keep every call below that size.
@@ -539,20 +527,21 @@ class _Plan:
                         do(op, dst, t1, dst)
                 for b, rate in enumerate((qd, qdd, qddd)):
                     do(np.add, w[b, 4], rate, w[b, 4])
-        # f = [I|Q] [a; monomials(v)],  ḟ = [I|Q] [j; d/dt monomials(v)]: one stacked product
+        # f = [I|Q] [a; monomials(v)],  ḟ = [I|Q] [j; d/dt monomials(v)]: one stacked product.
+        # The monomials' rows are not evenly spaced in the internal order: 1-D products
+        # (numpy's fast path) beat strided multi-row calls here.
         v, a = w[0], w[1]
-        mono, dmono, tmp = w[1, 6:], w[2, 6:], w[0, 6:]
-        row = 0
-        for sa, sb in _MONO_SLICES:
-            n = len(range(6)[sa])
-            do(np.multiply, v[sa], v[sb], mono[row : row + n])
-            do(np.multiply, a[sa], v[sb], dmono[row : row + n])
-            if row < _N_SQUARES:  # d/dt ω_k² = 2 α_k ω_k
-                do(np.add, dmono[row : row + n], dmono[row : row + n], dmono[row : row + n])
+        mono, dmono, tmp = w[1, 6:], w[2, 6:], w[0, 6]
+        for row, (ia, ib) in enumerate(_MONOMIALS):
+            ra, rb = _ROW[ia], _ROW[ib]
+            do(np.multiply, v[ra], v[rb], mono[row])
+            if ia == ib:  # d/dt ω_k² = 2 α_k ω_k
+                do(np.add, a[ra], a[ra], tmp)
+                do(np.multiply, tmp, v[ra], dmono[row])
             else:
-                do(np.multiply, v[sa], a[sb], tmp[:n])
-                do(np.add, dmono[row : row + n], tmp[:n], dmono[row : row + n])
-            row += n
+                do(np.multiply, a[ra], v[rb], dmono[row])
+                do(np.multiply, v[ra], a[rb], tmp)
+                do(np.add, dmono[row], tmp, dmono[row])
         self._gemm(self._internal(jt.lf), w[1:3], self.forces[k])
 
     def _root_motion(self, jt, ac, w, q, qd, qdd, qddd, k) -> None:

@@ -30,23 +30,28 @@ Backward pass: F_i = f_i + Σ_c X_cᵀ F_c and, since d/dt X_cᵀ = X_cᵀ (S_c 
 armature_i q̈_i and τ̇_i = S_iᵀ Ḟ_i + armature_i q⃛_i: what ``pin.rnea`` returns
 (it adds ``model.armature · q̈``) and its exact time derivative.
 
-Implementation (chosen by measurement, see ``bench/batch_dynamics.py``):
+Implementation (each choice measured, see ``bench/batch_dynamics.py``):
 
 * every 1-DoF joint becomes a joint about / along the local z axis by giving
   each body an internal frame rotated by a constant R_a with R_a e_z = axis;
   inertias and placements are re-expressed once per call;
 * the constant part of X_i is one 6×6 BLAS product applied to v, a and j at
   once; the q-dependent part is a rotation about z (or a shift along z) done
-  with component arithmetic;
-* v ×* I v is a quadratic form with only 12 distinct monomials (ω_k ω_l and
-  ω_k u_l, k ≠ l): f = [I | Q] · [a; monomials] and ḟ = [I | Q'] · [j; their
-  derivatives] are two more BLAS products, so the elementwise work is just the
-  monomials (33 products);
-* the batch is processed in chunks whose temporaries stay in cache.
+  with component arithmetic on rows ordered (u_x, ω_x, u_y, ω_y, u_z, ω_z),
+  so that every pair a z-rotation mixes is a contiguous 2-row block;
+* v ×* I v is a quadratic form in only 12 monomials (ω_k ω_l and ω_k u_l,
+  k ≠ l), so f = [I | Q]·[a; monomials] and ḟ = [I | Q]·[j; d/dt monomials]
+  are one stacked BLAS product after 12 + 21 elementwise products;
+* the batch is cut in chunks; for a chunk size the whole computation is
+  recorded once as a list of numpy calls on fixed buffers and replayed per
+  chunk (Python only dispatches), BLAS calls are kept below OpenBLAS's
+  multithreading threshold, and sin/cos use a 1-ulp polynomial that is about
+  twice as fast as numpy's here.
 """
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,7 +59,7 @@ import pinocchio as pin
 
 __all__ = ["rnea_with_derivative"]
 
-DEFAULT_CHUNK = 4096
+DEFAULT_CHUNK = 2048
 
 _REVOLUTE_AXES = {
     "JointModelRX": (1.0, 0.0, 0.0),
@@ -268,6 +273,7 @@ def rnea_with_derivative(
     Jerk,
     *,
     chunk: int = DEFAULT_CHUNK,
+    threads: int = 1,
     out: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Inverse dynamics τ and its time derivative τ̇ for a batch of trajectory points.
@@ -281,8 +287,11 @@ def rnea_with_derivative(
 
     Only 1-DoF revolute and prismatic joints (any axis) are supported; anything
     else raises ValueError.  ``chunk`` is the number of configurations processed
-    together (the default was chosen by measurement on the Panda).  ``out`` may
-    give two preallocated float64 (nv, B) arrays to write into.
+    together (the default was chosen by measurement on the Panda).  ``threads``
+    > 1 processes chunks in that many threads (numpy and BLAS release the GIL
+    for most of the work; leave it at 1 when the caller already runs several
+    batches in parallel).  ``out`` may give two preallocated float64 (nv, B)
+    arrays to write into.
     """
     joints, a0 = _prepare(model)
     nv = model.nv
@@ -294,8 +303,8 @@ def rnea_with_derivative(
     for x, n in zip((V, A, Jerk), ("V", "A", "Jerk"), strict=True):
         if x.shape[1] != batch:
             raise ValueError(f"{n} has batch size {x.shape[1]}, Q has {batch}")
-    if chunk < 1:
-        raise ValueError("chunk must be >= 1")
+    if chunk < 1 or threads < 1:
+        raise ValueError("chunk and threads must be >= 1")
     if out is None:
         tau = np.empty((nv, batch))
         tau_dot = np.empty((nv, batch))
@@ -305,9 +314,21 @@ def rnea_with_derivative(
             if not isinstance(o, np.ndarray) or o.dtype != np.float64 or o.shape != (nv, batch):
                 raise ValueError(f"out must be two float64 arrays of shape ({nv}, {batch})")
     if batch:
-        plan = _Plan(joints, a0, nv, min(chunk, batch))
-        for start in range(0, batch, plan.nb):
-            plan.run(Q, V, A, Jerk, tau, tau_dot, start)
+        nb = min(chunk, batch)
+        starts = range(0, batch, nb)
+        workers = min(threads, len(starts))
+        plans = [_Plan(joints, a0, nv, nb) for _ in range(workers)]
+
+        def work(i: int) -> None:
+            for start in starts[i::workers]:
+                plans[i].run(Q, V, A, Jerk, tau, tau_dot, start)
+
+        if workers == 1:
+            work(0)
+        else:
+            with ThreadPoolExecutor(workers) as pool:
+                for done in [pool.submit(work, i) for i in range(workers)]:
+                    done.result()
     if squeeze:
         return tau[:, 0], tau_dot[:, 0]
     return tau, tau_dot

@@ -253,6 +253,10 @@ def test_chunking_layouts_and_out():
         got = rnea_with_derivative(model, Q, V, A, J, chunk=chunk)
         np.testing.assert_allclose(got[0], ref[0], rtol=1e-13, atol=1e-13)
         np.testing.assert_allclose(got[1], ref[1], rtol=1e-13, atol=1e-13)
+    # several threads: the same numbers
+    got = rnea_with_derivative(model, Q, V, A, J, chunk=50, threads=3)
+    np.testing.assert_array_equal(got[0], rnea_with_derivative(model, Q, V, A, J, chunk=50)[0])
+    np.testing.assert_allclose(got[1], ref[1], rtol=1e-13, atol=1e-13)
     # Fortran-ordered / transposed inputs give the same result
     got = rnea_with_derivative(model, *(np.asfortranarray(x) for x in (Q, V, A, J)))
     np.testing.assert_allclose(got[0], ref[0], rtol=1e-13, atol=1e-13)
@@ -279,6 +283,8 @@ def test_bad_shapes_raise():
         rnea_with_derivative(model, Q[:2], V, A, J)
     with pytest.raises(ValueError, match="batch"):
         rnea_with_derivative(model, Q, V[:, :3], A, J)
+    with pytest.raises(ValueError, match="threads"):
+        rnea_with_derivative(model, Q, V, A, J, threads=0)
     with pytest.raises(ValueError, match="out"):
         rnea_with_derivative(model, Q, V, A, J, out=(np.empty((3, 4)), np.empty((3, 5))))
 

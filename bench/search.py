@@ -4,6 +4,11 @@
    standing in for roadmaps, k nearest neighbours, directed edges both ways,
    cost = Euclidean length * U(1, 2)): time and expansions per planner next to
    the paper's MATLAB seconds.
+1b. The same on real energy roadmaps of 91, 182 and 273 nodes built with
+   ``build_roadmap`` (3-link arm, PAPER_MOTOR behind a 9:1 gear, kp 40, kd 4,
+   one box obstacle, seeded; T = 0.5 s, dt = 0.01 s so the build takes about a
+   second), start and goal on either side of the obstacle: initial plan, and a
+   repair after blocking every edge of the path's second node ahead of the robot.
 2. Scaling on 1k / 10k / 100k-node graphs: initial plan of each planner vs
    networkx.dijkstra_path on the same graph.
 3. Replanning: edges blocked near the robot (start) and, separately, near the
@@ -13,8 +18,8 @@
 
 Run:  PYTHONPATH=. python bench/search.py            (about a minute)
       PYTHONPATH=. python bench/search.py --sizes 1000 10000   (skip 100k)
-Every graph goes through ``planner_graph(n, src, dst, cost)`` so a real
-roadmap (arrays of tails, heads, energies) can be benchmarked the same way.
+Every graph goes through ``planner_graph(n, src, dst, cost)``; section 1b passes
+a real roadmap's arrays (tails, heads, energies in J) through it.
 """
 
 from __future__ import annotations
@@ -30,7 +35,16 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra as sp_dijkstra
 from scipy.spatial import cKDTree
 
-from mpd_pin.search import AStar, Dijkstra, DStarLite, Graph, MPDStarLite, Planner
+from mpd_pin.search import (
+    AStar,
+    Dijkstra,
+    DStarLite,
+    Graph,
+    MPDStarLite,
+    Path,
+    Planner,
+    SearchStats,
+)
 
 # Paper 000, Table 6: (nodes, best-path length, MPD* Lite s, D* Lite s, A* s), MATLAB.
 PAPER_TABLE6 = [
@@ -187,6 +201,137 @@ def table6(repeats: int) -> None:
     print("   path = nodes on the best path (ours / paper); exp = expansions; extraction =")
     print("   edge costs D* Lite reads to follow the g-gradient that MPD* Lite's pointers save.")
     print("   The paper's roadmaps are not available: compare magnitudes and ranking only.")
+
+
+# -------------------------------------------------------------- section 1b
+#: Start and goal of the real roadmaps (rad): the hand on either side of the wall.
+REAL_START = np.array([0.6, 0.3, 0.2])
+REAL_GOAL = np.array([2.4, -0.3, -0.2])
+REAL_SIZES = (91, 182, 273)
+
+
+def energy_roadmap(num_total: int, seed: int = 0):
+    """A real energy roadmap of ``num_total`` nodes (start and goal included).
+
+    3-link arm, PAPER_MOTOR with gear ratio 9, kp 40 V/rad, kd 4 V·s/rad,
+    feed-forward on; one box "wall" of 0.3 m x 0.4 m centred at (0, 0.9) m in the
+    x–z plane; k = 10 neighbours; fixed edge duration T = 0.5 s, RK4 dt = 0.01 s.
+    Returns ``(roadmap, build_seconds)``.
+    """
+    import mpd_pin as mp
+    from mpd_pin.collision import CollisionChecker
+    from mpd_pin.roadmap import EnergyCost, RoadmapOptions, build_roadmap
+    from mpd_pin.world import Box, World
+
+    arm = mp.builtin_arm("planar_3link")
+    drive = mp.Drive(arm, mp.PAPER_MOTOR.with_gear_ratio(9.0), kp=40.0, kd=4.0)
+    world = World((Box.planar((0.0, 0.9), 0.3, 0.4, name="wall"),))
+    options = RoadmapOptions(num_nodes=num_total - 2, k=10, seed=seed, duration=0.5, dt=0.01)
+    t0 = time.perf_counter()
+    roadmap = build_roadmap(
+        EnergyCost(drive, options.dt),
+        CollisionChecker(arm, world),
+        REAL_START,
+        REAL_GOAL,
+        options,
+        show_progress=False,
+    )
+    return roadmap, time.perf_counter() - t0
+
+
+def paper_row(n: int, path_nodes: int) -> tuple:
+    """The Table 6 row with ``n`` nodes whose best path length is closest to ours."""
+    rows = [r for r in PAPER_TABLE6 if r[0] == n]
+    return min(rows, key=lambda r: abs(r[1] - path_nodes))
+
+
+def timed_repair(
+    make: Callable[[Graph, int, int], Planner],
+    g0: Graph,
+    s: int,
+    t: int,
+    blocked: list[tuple[int, int]],
+    repeats: int,
+) -> tuple[float, Path, SearchStats]:
+    """Best-of-``repeats`` time of blocking ``blocked`` (update_edge to inf) and plan() again.
+
+    Each repeat starts from a fresh planner on a copy of ``g0`` whose first plan is
+    not timed. Returns the time (s), the repaired path and the repair's own work
+    (``last_stats`` right after the repairing plan()).
+    """
+    best = math.inf
+    result = None
+    for _ in range(repeats):
+        p = make(g0.copy(), s, t)
+        p.plan()
+        t0 = time.perf_counter()
+        for u, v in blocked:
+            p.update_edge(u, v, math.inf)
+        path = p.plan()
+        dt = time.perf_counter() - t0
+        if dt < best:
+            best, result = dt, (path, p.last_stats.copy())
+    return best, *result
+
+
+def real_table6(repeats: int, sizes: tuple[int, ...] = REAL_SIZES) -> None:
+    print("\n== 1b. Table 6 of paper 000 on real energy roadmaps (3-link arm, costs = E+ in J) ==")
+    print("   PAPER_MOTOR gear 9, kp 40, kd 4, one box obstacle, k=10, seed 0, T=0.5 s, dt=0.01 s")
+    print(f"   times: ours in ms (best of {repeats}), paper in s (MATLAB, its own roadmaps)")
+    print("   plan = construction + first plan; repair = block every in/out edge of the path's")
+    print("   second node ahead of the robot (update_edge to inf) + plan(); A* and Dijkstra")
+    print("   search again from scratch, the D* Lites repair incrementally")
+    names = ["MPD* Lite", "D* Lite", "A* h=0", "Dijkstra"]
+    makers: dict[str, Callable[[Graph, int, int], Planner]] = {
+        "MPD* Lite": MPDStarLite,
+        "D* Lite": DStarLite,
+        "A* h=0": AStar,
+        "Dijkstra": Dijkstra,
+    }
+    print(
+        f"{'nodes':>5} {'edges':>5} {'build':>6} {'path':>9} {'':>6} | "
+        + " | ".join(f"{nm:>15}" for nm in names)
+        + " || paper MPD*/D*/A* (s)"
+    )
+    print(
+        f"{'':>5} {'':>5} {'s':>6} {'ours/ppr':>9} {'':>6} | "
+        + " | ".join(f"{'ms':>7} {'exp':>7}" for _ in names)
+        + " ||"
+    )
+    for n in sizes:
+        rm, build_s = energy_roadmap(n, seed=0)
+        g = planner_graph(rm.num_nodes, rm.src, rm.dst, rm.cost)
+        s, t = rm.start, rm.goal
+        first_cells, rep_cells, costs, rep_costs = [], [], [], []
+        path = None
+        for nm in names:
+            dt, p = timed_plan(makers[nm], g, s, t, repeats)
+            path = p.plan()
+            costs.append(path.cost)
+            first_cells.append(f"{dt * 1e3:7.3f} {p.stats.expansions:7d}")
+        assert all(math.isclose(c, costs[0], rel_tol=1e-12) for c in costs), costs
+        node = path.nodes[min(2, len(path.nodes) - 2)]
+        blocked = [(int(u), node) for u in g.predecessors(node)]
+        blocked += [(node, int(v)) for v in g.successors(node)]
+        for nm in names:
+            dt, rpath, work = timed_repair(makers[nm], g, s, t, blocked, repeats)
+            rep_costs.append(rpath.cost)
+            rep_cells.append(f"{dt * 1e3:7.3f} {work.expansions:7d}")
+        assert all(math.isclose(c, rep_costs[0], rel_tol=1e-12) for c in rep_costs), rep_costs
+        assert rep_costs[0] >= costs[0]
+        pn, hops_paper, t_mpd, t_d, t_a = paper_row(n, len(path.nodes))
+        print(
+            f"{n:>5} {rm.num_edges:>5} {build_s:6.2f} {len(path.nodes):>4}/{hops_paper:<4} "
+            f"{'plan':>6} | " + " | ".join(first_cells) + f" || {t_mpd:.3f} / {t_d:.3f} / {t_a:.3f}"
+        )
+        print(
+            f"{'':>5} {'':>5} {'':>6} {'':>9} {'repair':>6} | "
+            + " | ".join(rep_cells)
+            + f" || blocked {len(blocked)} edges of node {node};"
+            f" cost {costs[0]:.4g} -> {rep_costs[0]:.4g} J"
+        )
+    print("   path = nodes on the best path (ours / the paper row of that size with the closest")
+    print("   length); exp = expansions (repair: the repair's own work, planner.last_stats).")
 
 
 # --------------------------------------------------------------- section 2
@@ -381,16 +526,22 @@ def queues(sizes: list[int], graphs: dict) -> None:
             res[name] = (best, d)
         assert res["heapq lazy"][1] == res["indexed heap"][1]
         a, b = res["heapq lazy"][0], res["indexed heap"][0]
-        print(f"{n:>7} nodes: heapq lazy {a:.4f} s, indexed heap {b:.4f} s ({b / a:.2f}x slower)")
+        print(
+            f"{n:>7} nodes: heapq lazy {a:.4f} s, indexed heap {b:.4f} s "
+            f"(indexed / heapq = {b / a:.2f})"
+        )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[1000, 10_000, 100_000])
     ap.add_argument("--k", type=int, default=10, help="nearest neighbours per node")
+    ap.add_argument("--no-real", action="store_true", help="skip section 1b (real energy roadmaps)")
     args = ap.parse_args()
     t_all = time.perf_counter()
     table6(repeats=20)
+    if not args.no_real:
+        real_table6(repeats=20)
     graphs = {}
     for n in args.sizes:
         pts, src, dst, cost = random_geometric_arrays(n, args.k, seed=1)

@@ -6,7 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from mpd_pin.batch_dynamics import _sincos, rnea_with_derivative
+from mpd_pin.batch_dynamics import BatchRneaDerivative, _sincos, rnea_with_derivative
 
 N_SAMPLES = 250
 RTOL = 1e-10
@@ -276,6 +276,22 @@ def test_chunking_layouts_and_out():
     assert tau.shape == tau_dot.shape == (model.nv, 0)
 
 
+def test_reusable_evaluator():
+    model = ur5_model()
+    evaluate = BatchRneaDerivative(model, chunk=128)
+    for n, seed in ((1, 0), (37, 1), (128, 2), (300, 3), (37, 4)):
+        Q, V, A, J = random_states(model, n, seed=seed)
+        tau, tau_dot = evaluate(Q, V, A, J)
+        tau_ref, tau_dot_ref = pinocchio_reference(model, Q, V, A, J)
+        np.testing.assert_allclose(tau, tau_ref, rtol=RTOL, atol=ATOL)
+        np.testing.assert_allclose(tau_dot, tau_dot_ref, rtol=RTOL, atol=ATOL)
+    # NaN in one call does not leak into the next (padding columns are reset)
+    Q, V, A, J = random_states(model, 10, seed=5)
+    evaluate(np.full_like(Q, np.nan), V, A, J)
+    tau, _ = evaluate(Q[:, :3], V[:, :3], A[:, :3], J[:, :3])
+    assert np.all(np.isfinite(tau))
+
+
 def test_bad_shapes_raise():
     model = planar_model()
     Q, V, A, J = random_states(model, 5)
@@ -285,6 +301,8 @@ def test_bad_shapes_raise():
         rnea_with_derivative(model, Q, V[:, :3], A, J)
     with pytest.raises(ValueError, match="threads"):
         rnea_with_derivative(model, Q, V, A, J, threads=0)
+    with pytest.raises(ValueError, match="chunk"):
+        BatchRneaDerivative(model, chunk=0)
     with pytest.raises(ValueError, match="out"):
         rnea_with_derivative(model, Q, V, A, J, out=(np.empty((3, 4)), np.empty((3, 5))))
 

@@ -5,9 +5,11 @@ Prints, measured in this run, for the Panda (fingers locked) and the planar
 (default 1000 × 401 = 401 000 configurations):
 
 * seconds per configuration of ``mpd_pin.batch_dynamics.rnea_with_derivative``
-  (τ and τ̇; with preallocated outputs, and allocating them),
+  (τ and τ̇; with preallocated outputs, allocating them, with 2 threads, and
+  per chunk size for the Panda),
 * of ``pin.rneaInParallel`` and ``pin.abaInParallel`` (τ only / q̈ only, 2 threads),
 * of a Python loop over ``pin.computeRNEADerivatives`` forming τ̇ (on a subset),
+* one edge (401 points) at a time: the reusable ``BatchRneaDerivative`` vs the loop,
 * the ratios, and the 1 µs/configuration target for the Panda.
 
 The machine may be shared: every figure is the best of ``--repeats`` runs and
@@ -27,7 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 import mpd_pin as mp
-from mpd_pin.batch_dynamics import DEFAULT_CHUNK, rnea_with_derivative
+from mpd_pin.batch_dynamics import DEFAULT_CHUNK, BatchRneaDerivative, rnea_with_derivative
 
 THREADS = 2
 
@@ -106,6 +108,15 @@ def measure(name: str, model: pin.Model, args) -> None:
     def ours_alloc():
         rnea_with_derivative(model, Q, V, A, J, chunk=args.chunk)
 
+    def ours_threads():
+        rnea_with_derivative(model, Q, V, A, J, chunk=args.chunk, threads=THREADS, out=out)
+
+    edge = BatchRneaDerivative(model, chunk=args.chunk)
+    one = slice(0, args.points)
+
+    def ours_edge():
+        edge(Q[:, one], V[:, one], A[:, one], J[:, one])
+
     pool = pin.ModelPool(model, THREADS)
     tau_f = np.zeros_like(Qf, order="F")
     acc_f = np.zeros_like(Qf, order="F")
@@ -124,6 +135,8 @@ def measure(name: str, model: pin.Model, args) -> None:
 
     t_ours = best_of(ours_out, args.repeats) / batch
     t_alloc = best_of(ours_alloc, args.repeats) / batch
+    t_threads = best_of(ours_threads, args.repeats) / batch
+    t_edge = best_of(ours_edge, 20 * args.repeats) / args.points
     t_rnea = best_of(rnea_par, args.repeats) / batch
     t_aba = best_of(aba_par, args.repeats) / batch
     t_loop = best_of(loop, max(1, args.repeats // 2)) / n_loop
@@ -135,6 +148,11 @@ def measure(name: str, model: pin.Model, args) -> None:
     print(f"\n{name} (nv = {model.nv})")
     print(f"  rnea_with_derivative (tau, tau_dot), out=   {t_ours * us:8.3f} us/config")
     print(f"  rnea_with_derivative, allocating outputs    {t_alloc * us:8.3f} us/config")
+    print(f"  rnea_with_derivative, threads={THREADS}, out=      {t_threads * us:8.3f} us/config")
+    print(
+        f"  one edge ({args.points} points), BatchRneaDerivative  {t_edge * us:8.3f} us/config "
+        f"(loop/this = {t_loop / t_edge:.1f})"
+    )
     print(f"  pin.rneaInParallel ({THREADS} threads, tau)      {t_rnea * us:8.3f} us/config")
     print(f"  pin.abaInParallel ({THREADS} threads, qdd)       {t_aba * us:8.3f} us/config")
     print(
@@ -148,7 +166,15 @@ def measure(name: str, model: pin.Model, args) -> None:
     print(f"  max rel. difference: tau {err_tau:.1e}, tau_dot {err_dot:.1e}")
     if name == "panda":
         verdict = "met" if t_ours <= 1e-6 else "NOT met"
-        print(f"  target <= 1 us/config for the Panda: {verdict}")
+        print(f"  target <= 1 us/config for the Panda (1 thread): {verdict}")
+        sweep = []
+        for chunk in (256, 512, 1024, 2048, 4096, 8192):
+
+            def run(chunk=chunk):
+                rnea_with_derivative(model, Q, V, A, J, chunk=chunk, out=out)
+
+            sweep.append(f"{chunk}: {best_of(run, args.repeats) / batch * us:.3f}")
+        print(f"  chunk sweep (us/config): {', '.join(sweep)}")
         print(f"  pitfall check, rneaInParallel outputs: {order_pitfall(model)}")
 
 

@@ -72,25 +72,16 @@ _PRISMATIC_AXES = {
     "JointModelPZ": (0.0, 0.0, 1.0),
 }
 
-# Monomials of the body velocity v = (u, ω) that appear in v ×* I v, as index
-# pairs into v (0..2 = u, 3..5 = ω).  Grouped so that each group is one numpy
-# product of two row slices: (first rows, second rows).
-_MONO_GROUPS = (
-    ((3, 6), (3, 6)),  # ω0ω0, ω1ω1, ω2ω2
-    ((3, 5), (4, 6)),  # ω0ω1, ω1ω2
-    ((5, 6), (3, 4)),  # ω2ω0
-    ((3, 5), (1, 3)),  # ω0u1, ω1u2
-    ((5, 6), (0, 1)),  # ω2u0
-    ((4, 6), (0, 2)),  # ω1u0, ω2u1
-    ((3, 4), (2, 3)),  # ω0u2
-)
+# The monomials v_k v_l of the body velocity v = (u, ω) that appear in v ×* I v, as
+# index pairs into v in Pinocchio's order (0..2 = u, 3..5 = ω): ω_k ω_l and ω_k u_l
+# with k ≠ l (u_k u_l and u_k ω_k cancel; checked in _force_matrices).
 _MONOMIALS = [
-    (a, b)
-    for (a0, a1), (b0, b1) in _MONO_GROUPS
-    for a, b in zip(range(a0, a1), range(b0, b1), strict=True)
-]
+    (3, 3), (4, 4), (5, 5),  # ω0², ω1², ω2²
+    (3, 4), (4, 5), (5, 3),  # ω0ω1, ω1ω2, ω2ω0
+    (3, 1), (4, 2), (5, 0),  # ω0u1, ω1u2, ω2u0
+    (4, 0), (5, 1), (3, 2),  # ω1u0, ω2u1, ω0u2
+]  # fmt: skip
 _N_MONO = len(_MONOMIALS)  # 12
-_N_SQUARES = 3  # the first three monomials are squares
 
 
 def _skew(p: np.ndarray) -> np.ndarray:
@@ -140,8 +131,7 @@ class _Joint:
     armature: float
     xm: np.ndarray  # (6, 6) motion transform: parent internal frame -> joint base frame
     xf: np.ndarray  # (6, 6) force transform: joint base frame -> parent internal frame
-    lf: np.ndarray  # (6, 6 + 12): f = lf @ [a; monomials(v)]
-    lfd: np.ndarray  # (6, 6 + 21): ḟ = lfd @ [j; derivative terms of the monomials]
+    lf: np.ndarray  # (6, 6 + 12): f = lf @ [a; monomials(v)], ḟ = lf @ [j; d/dt monomials]
 
 
 def _joint_axis(model: pin.Model, i: int) -> tuple[bool, np.ndarray]:
@@ -162,10 +152,11 @@ def _joint_axis(model: pin.Model, i: int) -> tuple[bool, np.ndarray]:
     )
 
 
-def _force_matrices(i6: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """lf = [I | Q], lfd = [I | Q'] with v ×* I v = Q · monomials(v), its derivative Q' · terms.
+def _force_matrices(i6: np.ndarray) -> np.ndarray:
+    """[I | Q] with v ×* I v = Q · monomials(v), for (n, 6, 6) spatial inertias: (n, 6, 18).
 
-    i6: (n, 6, 6) spatial inertias; returns (n, 6, 18) and (n, 6, 27).
+    f = I a + v ×* I v = [I | Q]·[a; monomials(v)], and as the derivative of a
+    monomial is linear in (v, a), ḟ = I j + d/dt(v ×* I v) = [I | Q]·[j; d/dt monomials].
     """
     # v ×* I v = Σ_kl t[r, k, l] v_k v_l with t[:, :, k, l] = (e_k ×* I)[:, l]
     t = np.einsum("krm,nml->nrkl", _CROSS_FORCE, i6)
@@ -173,10 +164,8 @@ def _force_matrices(i6: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if np.abs(sym[:, :, ~_MONO_MASK]).max(initial=0.0) > 1e-12 * max(1.0, np.abs(i6).max()):
         raise AssertionError("internal error: unexpected monomials in v ×* I v")
     q = sym[:, :, _MONO_A, _MONO_B]
-    q[:, :, :_N_SQUARES] *= 0.5  # squares: t[k, k] counted twice in sym
-    # derivative terms: squares -> 2 a_k v_k; products v_a v_b -> a_a v_b and v_a a_b
-    qd = np.concatenate([2.0 * q[:, :, :_N_SQUARES], q[:, :, _N_SQUARES:], q[:, :, _N_SQUARES:]], 2)
-    return np.concatenate([i6, q], axis=2), np.concatenate([i6, qd], axis=2)
+    q[:, :, _MONO_A == _MONO_B] *= 0.5  # squares: t[k, k] counted twice in sym
+    return np.concatenate([i6, q], axis=2)
 
 
 def _prepare(model: pin.Model) -> tuple[list[_Joint], np.ndarray]:
@@ -205,7 +194,7 @@ def _prepare(model: pin.Model) -> tuple[list[_Joint], np.ndarray]:
         i6[:3, 3:] = -m * cx
         i6[3:, :3] = m * cx
         i6[3:, 3:] = ra.T @ inr.inertia @ ra - m * cx @ cx
-    lfs, lfds = _force_matrices(i6s)
+    lfs = _force_matrices(i6s)
     joints = []
     for i in range(1, model.njoints):
         iv = model.joints[i].idx_v
@@ -219,7 +208,6 @@ def _prepare(model: pin.Model) -> tuple[list[_Joint], np.ndarray]:
                 xm,
                 xm.T.copy(),
                 lfs[i - 1],
-                lfds[i - 1],
             )
         )
     return joints, -np.asarray(model.gravity.vector, dtype=float)
@@ -497,11 +485,12 @@ class _Plan:
         sc = self.scratch
         t2a, t2b, t2c = sc[0:2], sc[2:4], sc[4:6]
         if parent is None:
-            self._root_motion(jt, self._internal(jt.xm) @ a0p, w, q, qd, qdd, qddd, k)
+            self._root_motion(jt, self._internal(jt.xm) @ a0p, w, q, qd, qdd, qddd)
         else:
             self._gemm(self._internal(jt.xm), parent[:, :6], w[:, :6])
             if jt.revolute:
-                for b in range(3):  # into the body frame, Rz(q)^T: x' = c x + s y, y' = c y - s x
+                # into the body frame, Rz(q)^T: x' = c x + s y,  y' = c y - s x
+                for b in range(3):
                     x, y = w[b, 0:2], w[b, 2:4]  # (u_x, ω_x) and (u_y, ω_y)
                     do(np.multiply, x, s2, t2a)
                     do(np.multiply, x, c2, x)
@@ -551,7 +540,7 @@ class _Plan:
                         do(op, dst, t1, dst)
                 for b, rate in enumerate((qd, qdd, qddd)):
                     do(np.add, w[b, 4], rate, w[b, 4])
-        # f = [I|Q] [a; monomials(v)],  ḟ = [I|Q] [j; d/dt monomials(v)]: one stacked product.
+        # f = [I|Q] [a; monomials(v)],  ḟ = [I|Q] [j; d/dt monomials(v)]: one stacked product
         # The monomials' rows are not evenly spaced in the internal order: 1-D products
         # (numpy's fast path) beat strided multi-row calls here.
         v, a = w[0], w[1]
@@ -568,7 +557,7 @@ class _Plan:
                 do(np.add, dmono[row], tmp, dmono[row])
         self._gemm(self._internal(jt.lf), w[1:3], self.forces[k])
 
-    def _root_motion(self, jt, ac, w, q, qd, qdd, qddd, k) -> None:
+    def _root_motion(self, jt, ac, w, q, qd, qdd, qddd) -> None:
         """v, a, j of a body whose parent is the fixed base (v = j = 0, a = ac)."""
         do = self._do
         c, s = self.trig[0, jt.iv], self.trig[1, jt.iv]
@@ -644,9 +633,8 @@ class _Plan:
             do(np.subtract, f[1, 0:2], t2a, f[1, 0:2])
             do(np.multiply, f[0, 0:2], w2, t2a)
             do(np.add, f[1, 2:4], t2a, f[1, 2:4])
-            for b in range(
-                2
-            ):  # back to the joint base frame, Rz(q): x' = c x - s y, y' = c y + s x
+            # back to the joint base frame, Rz(q): x' = c x - s y,  y' = c y + s x
+            for b in range(2):
                 x, y = f[b, 0:2], f[b, 2:4]
                 do(np.multiply, x, s2, t2a)
                 do(np.multiply, x, c2, x)

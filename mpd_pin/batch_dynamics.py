@@ -19,8 +19,8 @@ S_i and X_i the motion transform parent → child (a function of q_i only):
     j_i = X_i j_λ + (X_i a_λ + a_i) × S_i q̇_i + v_i × S_i q̈_i + S_i q⃛_i
 
 (from Ẋ_i = −(S_i q̇_i)× X_i).  Gravity is a base acceleration a_0 = −g with
-zero base jerk.  Body forces and their derivatives (I_i is constant in the body
-frame):
+zero base jerk (exact for a purely linear g: see _prepare).  Body forces and
+their derivatives (I_i is constant in the body frame):
 
     f_i = I_i a_i + v_i ×* I_i v_i
     ḟ_i = I_i j_i + a_i ×* I_i v_i + v_i ×* I_i a_i
@@ -210,7 +210,14 @@ def _prepare(model: pin.Model) -> tuple[list[_Joint], np.ndarray]:
                 lfs[i - 1],
             )
         )
-    return joints, -np.asarray(model.gravity.vector, dtype=float)
+    gravity = np.asarray(model.gravity.vector, dtype=float)
+    if np.any(gravity[3:]):
+        # Treating gravity as a base acceleration a_0 = -g with zero jerk gives the exact
+        # τ̇ only for a uniform (purely linear) field γ: then the extra terms it puts in
+        # each body's ḟ, I(γ × v) + γ ×* I v + v ×* I γ, vanish identically.  Pinocchio's
+        # computeRNEADerivatives refuses an angular part too.
+        raise ValueError("model.gravity must be purely linear (no angular part)")
+    return joints, -gravity
 
 
 def _as_batch(x, nv: int, name: str) -> np.ndarray:

@@ -39,7 +39,7 @@ def planar_arm_xml(lengths=(0.5, 0.4, 0.3), masses=(2.0, 1.5, 1.0), radius=0.03)
     return '<robot name="planar3">' + "".join(links + joints) + "</robot>"
 
 
-def mixed_joints_xml() -> str:
+def mixed_joints_xml(prismatic_root: bool = False) -> str:
     """Prismatic joints and revolute joints about unaligned axes, off-centre inertias."""
     spec = [
         ("revolute", "0 0 1", "0 0 0.1", "0 0 0"),
@@ -49,6 +49,8 @@ def mixed_joints_xml() -> str:
         ("revolute", "0 -1 0", "0.3 0 0", "0 0 0"),
         ("prismatic", "0 0 -1", "0 0.1 0", "0.2 0.3 0.4"),
     ]
+    if prismatic_root:
+        spec = [("prismatic", "0.6 0.8 0", "0.1 0 0", "0.2 0 0.3"), *spec[1:]]
     rng = np.random.default_rng(7)
     links = ['<link name="base"/>']
     joints = []
@@ -98,6 +100,10 @@ def mixed_model() -> pin.Model:
     return pin.buildModelFromXML(mixed_joints_xml())
 
 
+def prismatic_root_model() -> pin.Model:
+    return pin.buildModelFromXML(mixed_joints_xml(prismatic_root=True))
+
+
 def panda_tree_model() -> pin.Model:
     """Panda with both (prismatic) finger joints: a branching kinematic tree."""
     return _erd().load("panda").model
@@ -109,6 +115,7 @@ MODELS = {
     "ur5": ur5_model,
     "panda_armature": panda_with_armature,
     "prismatic_unaligned": mixed_model,
+    "prismatic_root": prismatic_root_model,
     "panda_tree": panda_tree_model,
 }
 
@@ -184,14 +191,26 @@ def test_armature_enters_tau_and_tau_dot():
     )
 
 
-def test_custom_gravity():
-    model = planar_model()
+@pytest.mark.parametrize("name", ["planar3", "prismatic_unaligned", "prismatic_root"])
+def test_custom_gravity(name):
+    model = MODELS[name]()
     model.gravity = pin.Motion(np.array([1.0, -2.0, -9.0, 0.0, 0.0, 0.0]))
     Q, V, A, J = random_states(model, 50)
     tau, tau_dot = rnea_with_derivative(model, Q, V, A, J)
     tau_ref, tau_dot_ref = pinocchio_reference(model, Q, V, A, J)
     np.testing.assert_allclose(tau, tau_ref, rtol=RTOL, atol=ATOL)
     np.testing.assert_allclose(tau_dot, tau_dot_ref, rtol=RTOL, atol=ATOL)
+
+
+def test_gravity_with_angular_part_rejected():
+    """As computeRNEADerivatives (pin.rnea itself accepts it; τ̇ would need extra terms)."""
+    model = planar_model()
+    model.gravity = pin.Motion(np.array([0.0, 0.0, -9.81, 0.0, 0.3, 0.0]))
+    q = np.zeros(model.nq)
+    with pytest.raises(ValueError, match="angular"):
+        pin.computeRNEADerivatives(model, model.createData(), q, q, q)
+    with pytest.raises(ValueError, match="angular"):
+        rnea_with_derivative(model, q, q, q, q)
 
 
 def test_planar_arm_gravity_only():

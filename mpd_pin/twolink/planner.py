@@ -1,0 +1,394 @@
+"""The paper-002 pipeline: FCS per sample → D* with stop and return backward → PSO smoothing.
+
+Execution of the D* path (paper 002 §5, Fig. 2), one motion sample at a time
+(sample k at t = k·Ts). The arm is at state s_k = (cell, branch), free at t_k.
+
+1. The obstacles *of the current sample* block their states (the FCS map of
+   sample k); D* (:class:`~mpd_pin.twolink.grid_dstar.GridDStar`) repairs the
+   shortest path from s_k to the goal.
+2. Look one sample ahead, at the FCS map of sample k+1:
+
+   * **move** — the next state of the path is free at k+1: go there;
+   * **stop** — it is not (or no path exists in this snapshot) but the current
+     state stays free at k+1: wait one sample;
+   * **return backward** — the current state itself is about to be hit (not
+     free at k+1): retreat to a neighbouring state (one grid move, or a
+     same-cell branch switch, both within ``max_joint_step``) that is free at
+     k+1. Among those, the one that stays free for the most of the next
+     ``lookahead`` samples is taken, preferring the state the arm came from,
+     then the one closer to the goal.
+
+   If no neighbour is free at k+1 the arm cannot be saved by stopping or
+   retreating: :class:`TrappedError` is raised (nothing colliding is ever
+   returned). So is exceeding ``max_samples``.
+
+So every sample of the D* motion is collision-free by construction (states are
+checked against the obstacles of the sample at which the arm occupies them),
+and consecutive samples differ by at most ``max_joint_step`` in every joint.
+
+Then PSO (:mod:`~mpd_pin.twolink.pso`) chooses via points on that motion; the
+executed smoothed motion is the best spline found, re-checked sample by sample.
+If PSO finds nothing shorter than the D* motion, the D* motion itself is
+executed (``pso_improved`` is False), so the smoothed path is never longer.
+Path lengths are end-effector polylines through the positions at the motion
+samples (m).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..arm import Arm
+from ..errors import NoPathError
+from .fcs import FreeCartesianSpace, Grid
+from .grid_dstar import GridDStar
+from .ik import BRANCHES, TwoLinkKinematics, branch_index
+from .moving import MovingScene, SampledCollisionChecker
+from .pso import PSOOptions, PSOResult, SmoothedMotion, ViaPointSmoother, path_length, pso_minimize
+
+__all__ = [
+    "TrappedError",
+    "DynamicProblem",
+    "DStarMotion",
+    "DynamicPlanResult",
+    "execute_dstar",
+    "plan_dynamic",
+]
+
+
+class TrappedError(NoPathError):
+    """Neither moving, stopping nor returning backward keeps the arm collision-free."""
+
+
+@dataclass
+class DynamicProblem:
+    """A two-link arm among moving obstacles (paper 002).
+
+    ``start``/``goal``: end-effector points (x, z) (m), snapped to the nearest
+    grid cell; ``start_branch``: ``"up"``/``"down"``; ``goal_branch``: also
+    ``"any"``. ``margin`` (m): clearance the links must keep from every
+    obstacle at every sample (≥ the link radius makes the cylinder links safe
+    as capsules too). ``max_joint_step`` (rad): largest joint change between
+    two samples. ``switch_penalty`` (m): extra D* cost of an elbow-branch switch.
+    ``max_samples``: give up after this many. ``lookahead``:
+    samples looked ahead when choosing where to retreat.
+    """
+
+    arm: Arm
+    scene: MovingScene
+    grid: Grid
+    start: tuple[float, float]
+    goal: tuple[float, float]
+    start_branch: str = "up"
+    goal_branch: str = "any"
+    margin: float = 0.03
+    max_joint_step: float = 0.5
+    switch_penalty: float = 0.05
+    max_samples: int = 500
+    lookahead: int = 5
+    pso: PSOOptions = field(default_factory=PSOOptions)
+    num_via: int = 10
+    spline_bc: str = "clamped"
+    num_threads: int = 1
+
+    @property
+    def ts(self) -> float:
+        return self.scene.ts
+
+
+@dataclass
+class DStarMotion:
+    """The executed D* motion: one state per motion sample, and the stop/backward events."""
+
+    states: list[int]
+    points: np.ndarray  # (K+1, 2) m
+    q: np.ndarray  # (K+1, 2) rad
+    branches: np.ndarray  # (K+1,) 0 up, 1 down
+    events: list[dict[str, Any]]
+    replans: int
+    edge_updates: int
+
+    @property
+    def num_samples(self) -> int:
+        return len(self.states)
+
+    @property
+    def length(self) -> float:
+        return path_length(self.points)
+
+
+@dataclass
+class DynamicPlanResult:
+    """Everything :func:`plan_dynamic` produced."""
+
+    problem: DynamicProblem
+    kin: TwoLinkKinematics
+    fcs: FreeCartesianSpace
+    checker: SampledCollisionChecker
+    start_state: int
+    goal_states: list[int]
+    dstar: DStarMotion
+    pso: PSOResult | None
+    smoother: ViaPointSmoother | None
+    motion: SmoothedMotion
+    pso_improved: bool
+    timings: dict[str, float]
+
+    @property
+    def path_length_dstar(self) -> float:
+        return self.dstar.length
+
+    @property
+    def path_length_pso(self) -> float:
+        return self.motion.length
+
+
+def _resolve_endpoints(
+    problem: DynamicProblem, kin: TwoLinkKinematics, fcs: FreeCartesianSpace
+) -> tuple[int, list[int]]:
+    grid = problem.grid
+    sb = branch_index(problem.start_branch)
+    for what, p in (("start", problem.start), ("goal", problem.goal)):
+        kin_branches = [sb] if what == "start" else (
+            [0, 1] if problem.goal_branch == "any" else [branch_index(problem.goal_branch)]
+        )
+        cell = grid.nearest_cell(p)
+        cp = grid.point(cell)
+        ok_any = False
+        for b in kin_branches:
+            try:
+                kin.ik_point(cp, b, what=f"{what} cell")
+                ok_any = True
+            except ValueError as exc:
+                err = exc
+        if not ok_any:
+            raise err
+    start_cell = grid.nearest_cell(problem.start)
+    goal_cell = grid.nearest_cell(problem.goal)
+    if start_cell == goal_cell:
+        raise ValueError("start and goal fall on the same grid cell")
+    start_state = fcs.state(start_cell, sb)
+    free0 = fcs.free_states(0)
+    if not free0[start_state]:
+        p = grid.point(start_cell)
+        raise ValueError(
+            f"start ({p[0]:.3f}, {p[1]:.3f}) m with elbow {BRANCHES[sb]} is in collision at t = 0 "
+            f"(margin {problem.margin} m)"
+        )
+    if problem.goal_branch == "any":
+        goal_states = [fcs.state(goal_cell, b) for b in (0, 1) if fcs.reachable[fcs.state(
+            goal_cell, b)]]
+    else:
+        goal_states = [fcs.state(goal_cell, branch_index(problem.goal_branch))]
+    if not any(free0[s] for s in goal_states):
+        p = grid.point(goal_cell)
+        raise ValueError(
+            f"goal ({p[0]:.3f}, {p[1]:.3f}) m (elbow {problem.goal_branch}) is in collision at "
+            f"t = 0 (margin {problem.margin} m)"
+        )
+    return start_state, goal_states
+
+
+def _survival(fcs: FreeCartesianSpace, state: int, k0: int, horizon: int) -> int:
+    """How many consecutive samples k0, k0+1, … (at most ``horizon``) ``state`` stays free."""
+    n = 0
+    for k in range(k0, k0 + horizon):
+        if not fcs.free_states(k)[state]:
+            break
+        n += 1
+    return n
+
+
+def execute_dstar(
+    fcs: FreeCartesianSpace,
+    start_state: int,
+    goal_states: list[int],
+    *,
+    max_joint_step: float,
+    max_samples: int,
+    lookahead: int = 5,
+    switch_penalty: float = 0.0,
+    progress: Callable[[int], None] | None = None,
+) -> DStarMotion:
+    """Run D* sample by sample with the stop and return-backward cases (module docstring)."""
+    grid = fcs.grid
+    dstar = GridDStar(fcs, start_state, goal_states, fcs.free_states(0),
+                      max_joint_step=max_joint_step, switch_penalty=switch_penalty)
+    goal_set = set(goal_states)
+    s = int(start_state)
+    states = [s]
+    events: list[dict[str, Any]] = []
+    k = 0
+    replans = 0
+    while s not in goal_set:
+        if k >= max_samples:
+            raise TrappedError(
+                f"the arm did not reach the goal within {max_samples} motion samples "
+                f"({max_samples * fcs.checker.scene.ts:.2f} s)"
+            )
+        free_next = fcs.free_states(k + 1)
+        try:
+            path = dstar.plan_from(s)
+            replans += 1
+            nxt: int | None = path[1] if len(path) > 1 else None
+        except NoPathError:
+            nxt = None
+        if nxt is not None and free_next[nxt]:
+            new = nxt
+            c0, b0 = fcs.cell_branch(s)
+            c1, b1 = fcs.cell_branch(new)
+            if b0 != b1:
+                events.append({"type": "switch", "sample": k + 1,
+                               "branch": BRANCHES[b1], "cell": grid.point(c1).tolist()})
+        elif free_next[s]:
+            new = s
+            events.append({
+                "type": "stop",
+                "sample": k + 1,
+                "reason": "no path in this sample" if nxt is None else "next cell occupied",
+                "cell": grid.point(fcs.cell_branch(s)[0]).tolist(),
+            })
+        else:
+            cands = [v for v in dstar.successors(s) if free_next[v]]
+            if not cands:
+                p = grid.point(fcs.cell_branch(s)[0])
+                raise TrappedError(
+                    f"at sample {k} (t = {k * fcs.checker.scene.ts:.3f} s) an obstacle is about to "
+                    f"hit the arm at ({p[0]:.3f}, {p[1]:.3f}) m and no neighbouring cell is free: "
+                    "neither stopping nor returning backward can save it"
+                )
+            prev = states[-2] if len(states) > 1 else -1
+            new = max(
+                cands,
+                key=lambda v: (
+                    _survival(fcs, v, k + 1, lookahead),
+                    v == prev,
+                    -dstar.cost_to_goal(v) if math.isfinite(dstar.cost_to_goal(v)) else -1e9,
+                    -v,
+                ),
+            )
+            events.append({
+                "type": "backward",
+                "sample": k + 1,
+                "from": grid.point(fcs.cell_branch(s)[0]).tolist(),
+                "cell": grid.point(fcs.cell_branch(new)[0]).tolist(),
+            })
+        k += 1
+        s = int(new)
+        states.append(s)
+        dstar.set_free(fcs.free_states(k))
+        if progress is not None:
+            progress(k)
+    cells = [fcs.cell_branch(x)[0] for x in states]
+    branches = np.array([fcs.cell_branch(x)[1] for x in states], dtype=np.int64)
+    pts = grid.points()[cells]
+    q = fcs.q_states[states]
+    return DStarMotion(
+        states=states,
+        points=pts,
+        q=q,
+        branches=branches,
+        events=events,
+        replans=replans,
+        edge_updates=dstar.updates,
+    )
+
+
+def plan_dynamic(
+    problem: DynamicProblem,
+    *,
+    seed: int | None = 0,
+    progress: Callable[[str, int, int | None], None] | None = None,
+) -> DynamicPlanResult:
+    """Plan the arm's motion: D* with stop/return executed per sample, then PSO smoothing.
+
+    ``seed`` seeds the PSO's ``numpy.random.Generator`` (same seed → same
+    result). ``progress(stage, done, total)`` is called as work advances.
+    Raises ValueError for unreachable or colliding start/goal, and
+    :class:`TrappedError` when the arm cannot be kept safe.
+    """
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    kin = TwoLinkKinematics(problem.arm)
+    checker = SampledCollisionChecker(
+        problem.arm, problem.scene, margin=problem.margin, num_threads=problem.num_threads
+    )
+    fcs = FreeCartesianSpace(kin, problem.grid, checker)
+    start_state, goal_states = _resolve_endpoints(problem, kin, fcs)
+    timings["setup"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    dmotion = execute_dstar(
+        fcs,
+        start_state,
+        goal_states,
+        max_joint_step=problem.max_joint_step,
+        max_samples=problem.max_samples,
+        lookahead=problem.lookahead,
+        switch_penalty=problem.switch_penalty,
+        progress=(lambda k: progress("dstar", k, None)) if progress else None,
+    )
+    timings["dstar"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    dstar_as_motion = SmoothedMotion(
+        knots=np.arange(dmotion.num_samples),
+        points=dmotion.points.copy(),
+        q=dmotion.q.copy(),
+        branches=dmotion.branches.copy(),
+        feasible=True,
+        length=dmotion.length,
+    )
+    pso_res: PSOResult | None = None
+    smoother: ViaPointSmoother | None = None
+    motion = dstar_as_motion
+    improved = False
+    if dmotion.num_samples >= 3 and problem.pso.iterations >= 0:
+        smoother = ViaPointSmoother(
+            kin,
+            checker,
+            dmotion.points,
+            dmotion.branches,
+            num_via=min(problem.num_via, dmotion.num_samples - 2),
+            max_joint_step=problem.max_joint_step,
+            goal_branches=tuple(fcs.cell_branch(g)[1] for g in goal_states),
+            bc_type=problem.spline_bc,
+        )
+        rng = np.random.default_rng(seed)
+        total = problem.pso.iterations
+        pso_res = pso_minimize(
+            smoother.costs,
+            smoother.lower,
+            smoother.upper,
+            problem.pso,
+            rng,
+            initial=smoother.even_particle()[None, :],
+            callback=(lambda it, c: progress("pso", it, total)) if progress else None,
+        )
+        if math.isfinite(pso_res.cost) and pso_res.cost < dmotion.length:
+            cand = smoother.motion(pso_res.x)
+            if not cand.feasible:  # pragma: no cover - costs() and motion() check the same
+                raise RuntimeError(f"PSO's best motion failed its re-check: {cand.reason}")
+            motion = cand
+            improved = True
+    timings["pso"] = time.perf_counter() - t0
+    return DynamicPlanResult(
+        problem=problem,
+        kin=kin,
+        fcs=fcs,
+        checker=checker,
+        start_state=start_state,
+        goal_states=goal_states,
+        dstar=dmotion,
+        pso=pso_res,
+        smoother=smoother,
+        motion=motion,
+        pso_improved=improved,
+        timings=timings,
+    )

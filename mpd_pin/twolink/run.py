@@ -1,0 +1,225 @@
+"""End-to-end run of a ``dynamic2link`` scenario: plan, write ``result.json`` and the plots.
+
+``mpd-pin run env1 --out DIR`` dispatches here (scenario kind
+``"dynamic2link"``). Files written in DIR:
+
+* ``result.json`` — see :func:`run_dynamic_scenario`;
+* ``fcs.png`` — FCS maps (elbow down / up / both) at selected samples (paper Fig. 5 / 11);
+* ``paths.png`` — D* vs PSO end-effector paths and the PSO cost curve (Fig. 7 / 13);
+* ``dstar_motion.png``, ``pso_motion.png`` — arm snapshots (Figs. 6, 8 / 12, 14);
+* ``joint_angles.png``, ``joint_changes.png`` — Figs. 9–10 / 15–16;
+* ``obstacles.png`` — obstacle motion (Fig. 4).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .ik import BRANCHES
+from .planner import DynamicPlanResult, plan_dynamic
+from .scenario import DynamicScenario, parse_dynamic_scenario
+
+__all__ = ["run_dynamic_scenario", "result_dict", "default_fcs_samples"]
+
+
+def _finite_or_none(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def default_fcs_samples(res: DynamicPlanResult, n: int = 5) -> list[int]:
+    """Start, the first stop/backward events, and the last sample (at most ``n``)."""
+    K = res.motion.points.shape[0] - 1
+    picks = [0]
+    for e in res.dstar.events:
+        if e["type"] in ("stop", "backward") and e["sample"] not in picks:
+            picks.append(int(e["sample"]))
+        if len(picks) >= n - 1:
+            break
+    if len(picks) < n - 1:
+        extra = np.linspace(0, K, n - len(picks) + 1).round().astype(int).tolist()
+        for k in extra:
+            if k not in picks and len(picks) < n - 1:
+                picks.append(k)
+    if K not in picks:
+        picks.append(K)
+    return sorted(set(picks))
+
+
+def _snapshot_samples(K: int, events: list[dict], n: int = 8) -> list[int]:
+    picks = set(np.linspace(0, K, n).round().astype(int).tolist())
+    for e in events:
+        if e["type"] == "backward" and len(picks) < n + 3:
+            picks.add(int(e["sample"]))
+    return sorted(k for k in picks if 0 <= k <= K)
+
+
+def result_dict(scn: DynamicScenario, res: DynamicPlanResult, seed: int | None) -> dict[str, Any]:
+    """The JSON-ready result of one run (see :func:`run_dynamic_scenario`)."""
+    prob = res.problem
+    scene = prob.scene
+    ts = scene.ts
+    mot = res.motion
+    d = res.dstar
+    samples = []
+    for k in range(len(mot.points)):
+        samples.append({
+            "t": k * ts,
+            "q": [float(v) for v in mot.q[k]],
+            "ee": [float(v) for v in mot.points[k]],
+            "branch": BRANCHES[int(mot.branches[k])],
+            "obstacles": scene.snapshot(k * ts),
+        })
+    dstar_samples = [
+        {"t": k * ts, "q": [float(v) for v in d.q[k]], "ee": [float(v) for v in d.points[k]],
+         "branch": BRANCHES[int(d.branches[k])]}
+        for k in range(d.num_samples)
+    ]
+    clearances = [res.checker.clearance(mot.q[k], k) for k in range(len(mot.q))]
+    counts = {e: sum(1 for x in d.events if x["type"] == e) for e in ("stop", "backward", "switch")}
+    pso = res.pso
+    return {
+        "kind": "dynamic2link",
+        "name": scn.name,
+        "description": scn.description,
+        "arm": prob.arm.name,
+        "link_lengths": [res.kin.l1, res.kin.l2],
+        "sample_time": ts,
+        "grid": prob.grid.to_dict(),
+        "margin": prob.margin,
+        "max_joint_step": prob.max_joint_step,
+        "start": res.fcs.grid.point(res.fcs.cell_branch(res.start_state)[0]).tolist(),
+        "start_branch": BRANCHES[res.fcs.cell_branch(res.start_state)[1]],
+        "goal": res.fcs.grid.point(res.fcs.cell_branch(res.goal_states[0])[0]).tolist(),
+        "goal_branch": prob.goal_branch,
+        "obstacles": [ob.to_dict() for ob in scene.obstacles],
+        "num_samples": len(samples),
+        "duration": (len(samples) - 1) * ts,
+        "samples": samples,
+        "dstar_samples": dstar_samples,
+        "path_length_dstar": d.length,
+        "path_length_pso": mot.length,
+        "pso_improved": res.pso_improved,
+        "pso_cost_curve": [_finite_or_none(c) for c in pso.cost_curve] if pso else [],
+        "pso": {
+            "particles": prob.pso.particles,
+            "iterations": prob.pso.iterations,
+            "via_points": res.smoother.num_via if res.smoother else 0,
+            "c1": prob.pso.c1,
+            "c2": prob.pso.c2,
+            "w": prob.pso.w,
+            "k": prob.pso.k,
+            "seed": seed,
+            "spline_bc": prob.spline_bc,
+            "knots": [int(v) for v in mot.knots],
+            "evaluations": pso.evaluations if pso else 0,
+            "distinct_paths_evaluated": res.smoother.evaluated if res.smoother else 0,
+        },
+        "events": d.events,
+        "event_counts": counts,
+        "min_clearance": float(min(clearances)),
+        "dstar": {"replans": d.replans, "edge_updates": d.edge_updates},
+        "collision_checkers_built": res.checker.builds,
+        "timings": {k: round(v, 4) for k, v in res.timings.items()},
+    }
+
+
+def run_dynamic_scenario(
+    data: dict,
+    out_dir: Path,
+    *,
+    seed: int | None = None,
+    show_progress: bool = True,
+) -> dict:
+    """Plan a ``dynamic2link`` scenario (parsed TOML ``data``), write results to ``out_dir``.
+
+    ``seed`` overrides the scenario's ``pso.seed``. Returns the dict written to
+    ``out_dir/result.json``, which holds at least: ``link_lengths`` (m),
+    ``samples`` (the executed smoothed motion at every motion sample:
+    ``{t (s), q (rad), ee (m), branch, obstacles: [{name, center [x, z] (m),
+    radius (m)}]}``), ``path_length_dstar`` and ``path_length_pso`` (m),
+    ``pso_cost_curve`` (best length per iteration, m; null while no feasible
+    particle), ``events`` (the D* execution's ``stop`` / ``backward`` /
+    ``switch`` events with their ``sample`` index), plus ``dstar_samples``,
+    ``min_clearance`` (m) and timings (s).
+
+    Raises ConfigError/ValueError for bad input and
+    :class:`~mpd_pin.twolink.planner.TrappedError` (a NoPathError) when the arm
+    cannot be kept collision-free.
+    """
+    t_all = time.perf_counter()
+    scn = parse_dynamic_scenario(data)
+    use_seed = scn.seed if seed is None else int(seed)
+    out_dir = Path(out_dir)
+    progress = None
+    bars: dict[str, Any] = {}
+    if show_progress:
+        from tqdm.auto import tqdm
+
+        def progress(stage: str, done: int, total: int | None) -> None:
+            bar = bars.get(stage)
+            if bar is None:
+                desc = "D* execution (samples)" if stage == "dstar" else "PSO (iterations)"
+                bar = bars[stage] = tqdm(total=total, desc=desc, leave=False)
+            bar.n = done
+            bar.refresh()
+
+    try:
+        res = plan_dynamic(scn.problem, seed=use_seed, progress=progress)
+    finally:
+        for bar in bars.values():
+            bar.close()
+    result = result_dict(scn, res, use_seed)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    result["plots"] = write_plots(scn, res, out_dir)
+    result["timings"]["plots"] = round(time.perf_counter() - t0, 4)
+    result["timings"]["total"] = round(time.perf_counter() - t_all, 4)
+    with open(out_dir / "result.json", "w", encoding="utf-8") as f:
+        json.dump(result, f, indent=1, allow_nan=False)
+    return result
+
+
+def write_plots(scn: DynamicScenario, res: DynamicPlanResult, out_dir: Path) -> list[str]:
+    """Write the PNG figures of a run into ``out_dir``; returns their file names."""
+    from . import plots
+
+    scene = res.problem.scene
+    kin = res.kin
+    ts = scene.ts
+    mot = res.motion
+    d = res.dstar
+    K = len(mot.points) - 1
+    fcs_samples = [k for k in (scn.fcs_samples or default_fcs_samples(res)) if 0 <= k <= K]
+    snaps = scn.snapshot_samples
+    figs = {
+        "fcs.png": plots.plot_fcs_maps(res.fcs, fcs_samples, q=d.q, path=d.points),
+        "paths.png": plots.plot_paths(
+            kin, scene, d.points, mot.points, res.pso.cost_curve if res.pso else None
+        ),
+        "dstar_motion.png": plots.plot_arm_snapshots(
+            kin, scene, d.q, snaps or _snapshot_samples(K, d.events), points=d.points,
+            events=d.events, title=f"{scn.name}: D* motion (stop / return backward marked)",
+        ),
+        "pso_motion.png": plots.plot_arm_snapshots(
+            kin, scene, mot.q, snaps or _snapshot_samples(K, []), points=mot.points,
+            title=f"{scn.name}: D* based on PSO motion",
+        ),
+        "joint_angles.png": plots.plot_joint_angles(
+            ts, mot.q, title=f"{scn.name}: joint angles of the optimised path"
+        ),
+        "joint_changes.png": plots.plot_joint_changes(
+            ts, mot.q, title=f"{scn.name}: change in joint angles per sample"
+        ),
+        "obstacles.png": plots.plot_obstacle_motion(kin, scene, K * ts),
+    }
+    names = []
+    for name, fig in figs.items():
+        fig.savefig(out_dir / name, dpi=90)
+        names.append(name)
+    return names

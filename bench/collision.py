@@ -9,8 +9,11 @@ For the 3-link planar arm with two obstacles and the Panda with two boxes:
   ``BroadPhaseManagerPool`` (1 thread and all threads) — the latter is
   ``is_free_batch``;
 * Pinocchio's default requests (no EPA) for the cost of the exactness fix;
-* edges per second of ``edges_free`` at 0.05 rad vs a loop of ``edge_free`` and
-  vs checking every configuration of every edge in one flat batch;
+* edges per second of the discrete ``edges_free`` at 0.05 rad vs a loop of
+  ``edge_free`` and vs checking every configuration of every edge in one flat batch;
+* the certified (continuous) edge check, the default: edges per second, the
+  fraction of edges each check accepts, queries per edge, certification on the
+  convex hulls vs on the meshes (Panda), other resolutions;
 * cost of revealing a hidden obstacle and of building a checker.
 
 All backends are checked to agree. Numbers vary with the load of the machine;
@@ -28,6 +31,7 @@ from collections.abc import Callable
 
 import numpy as np
 import pinocchio as pin
+from scipy.spatial import cKDTree
 
 import mpd_pin as mp
 from mpd_pin.collision import CollisionChecker, _bisection_order, edge_configurations
@@ -153,9 +157,9 @@ def bench_edges(name: str, arm: mp.Arm, world: World, K: int, threads: int,
     Q0 = rng.uniform(arm.lower_limits, arm.upper_limits, size=(K, arm.nq))
     Q1 = np.clip(Q0 + rng.uniform(-0.6, 0.6, size=Q0.shape), arm.lower_limits, arm.upper_limits)
     n_cfg = sum(len(edge_configurations(a, b, res)) for a, b in zip(Q0, Q1, strict=True))
-    t_batch, ok = best_of(lambda: checker.edges_free(Q0, Q1, res))
-    t_loop, ok_loop = best_of(
-        lambda: np.array([checker.edge_free(a, b, res) for a, b in zip(Q0, Q1, strict=True)]))
+    t_batch, ok = best_of(lambda: checker.edges_free(Q0, Q1, res, mode="discrete"))
+    t_loop, ok_loop = best_of(lambda: np.array(
+        [checker.edge_free(a, b, res, mode="discrete") for a, b in zip(Q0, Q1, strict=True)]))
 
     def flat() -> np.ndarray:
         parts = [edge_configurations(a, b, res) for a, b in zip(Q0, Q1, strict=True)]
@@ -166,8 +170,10 @@ def bench_edges(name: str, arm: mp.Arm, world: World, K: int, threads: int,
     t_flat, ok_flat = best_of(flat)
     assert np.array_equal(ok, ok_loop) and np.array_equal(ok, ok_flat)
     print(f"\n== {name}: {K} random edges (|Δq| ≤ 0.6 rad per joint), resolution {res} rad, "
-          f"{n_cfg / K:.1f} configurations per edge, {ok.mean():.2f} free")
-    print(f"   edges_free (trajectory API, early exit, parallel) {K / t_batch:9.0f} edges/s")
+          f"{n_cfg / K:.1f} configurations per edge")
+    print("   discrete:")
+    print(f"   edges_free (trajectory API, early exit, parallel) {K / t_batch:9.0f} edges/s"
+          f"  accepts {ok.mean():.4f}")
     print(f"   loop of edge_free (early exit)                    {K / t_loop:9.0f} edges/s"
           f"  (x{t_loop / t_batch:.2f} slower)")
     print(f"   one flat is_free_batch of all configurations      {K / t_flat:9.0f} edges/s"
@@ -175,9 +181,53 @@ def bench_edges(name: str, arm: mp.Arm, world: World, K: int, threads: int,
     order = _bisection_order(8)
     print(f"   (check order for 9 configurations: {order.tolist()})")
     # Discrete checking misses thin overlaps between two checked configurations.
-    fine = checker.edges_free(Q0[ok], Q1[ok], res / 10)
+    fine = checker.edges_free(Q0[ok], Q1[ok], res / 10, mode="discrete")
     print(f"   accepted at {res} rad but colliding at {res / 10} rad: {(~fine).sum()} of "
           f"{ok.sum()} accepted edges")
+
+    # Certified (continuous) check, the default.
+    t_cert, cert = best_of(lambda: checker.edges_free(Q0, Q1, res))
+    stats = checker.last_certify_stats
+    n_loop = min(K, 300)
+    t_cloop, cert_loop = best_of(lambda: np.array(
+        [checker.edge_free(a, b, res) for a, b in zip(Q0[:n_loop], Q1[:n_loop], strict=True)]))
+    assert np.array_equal(cert[:n_loop], cert_loop)
+    print("   certified:")
+    print(f"   edges_free (levels batched, parallel)             {K / t_cert:9.0f} edges/s"
+          f"  accepts {cert.mean():.4f}  (x{t_cert / t_batch:.2f} the discrete time)")
+    print(f"   loop of edge_free                                 {n_loop / t_cloop:9.0f} edges/s")
+    print(f"   per edge: {stats['certify_queries'] / K:.1f} certification + "
+          f"{stats['exact_queries'] / K:.1f} exact queries (at most), {stats['levels']} levels, "
+          f"{stats['too_close']} too close to call")
+    print(f"   accepted by discrete, rejected by certified: {(ok & ~cert).sum()}; "
+          f"accepted by certified, rejected by discrete: {(cert & ~ok).sum()}")
+    fine_c = checker.edges_free(Q0[cert], Q1[cert], res / 100, mode="discrete")
+    print(f"   certified edges colliding at {res / 100} rad: {(~fine_c).sum()} of {cert.sum()}")
+    if checker.certification_hulls:
+        plain = CollisionChecker(arm, world, num_threads=threads)
+        plain._cert = (plain.geom_model, plain._pool)  # certify on the meshes themselves
+        t_mesh, cert_mesh = best_of(lambda: plain.edges_free(Q0, Q1, res))
+        print(f"   certification on the meshes instead of their hulls: {K / t_mesh:.0f} edges/s "
+              f"(x{t_mesh / t_cert:.2f} slower), {(cert != cert_mesh).sum()} edges differ")
+    # Roadmap-like edges: k nearest neighbours among collision-free samples.
+    free_q = rng.uniform(arm.lower_limits, arm.upper_limits, size=(4 * K, arm.nq))
+    free_q = free_q[checker.is_free_batch(free_q)][: max(K // 5, 20)]
+    _, nbr = cKDTree(free_q).query(free_q, k=min(11, len(free_q)))
+    pairs = np.unique(np.sort(np.stack([np.repeat(np.arange(len(free_q)), nbr.shape[1]),
+                                        nbr.ravel()], axis=1), axis=1), axis=0)
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    A, B = free_q[pairs[:, 0]], free_q[pairs[:, 1]]
+    t_rd, rd = best_of(lambda: checker.edges_free(A, B, res, mode="discrete"))
+    t_rc, rc = best_of(lambda: checker.edges_free(A, B, res))
+    print(f"   roadmap-like: {len(pairs)} edges between {len(free_q)} free samples (10 nearest, "
+          f"mean max|Δq| {np.abs(B - A).max(axis=1).mean():.2f} rad): discrete "
+          f"{len(pairs) / t_rd:.0f} edges/s accepts {rd.mean():.4f}; certified "
+          f"{len(pairs) / t_rc:.0f} edges/s accepts {rc.mean():.4f} (x{t_rc / t_rd:.2f})")
+    for r in (2 * res, res / 2):
+        t_r, ok_r = best_of(lambda r=r: checker.edges_free(Q0, Q1, r))
+        t_d, _ = best_of(lambda r=r: checker.edges_free(Q0, Q1, r, mode="discrete"))
+        print(f"   resolution {r} rad: certified {K / t_r:.0f} edges/s "
+              f"(accepts {ok_r.mean():.4f}), discrete {K / t_d:.0f} edges/s")
 
 
 def main() -> None:

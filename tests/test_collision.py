@@ -11,6 +11,7 @@ rectangle–polygon, closest point for rectangle–disc, both as signed distance
 import math
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import mpd_pin as mp
@@ -288,6 +289,15 @@ def test_batch_equals_loop_and_hidden_obstacles():
     assert not checker.is_free(q_wall)
     checker.set_include_hidden(False)
     assert checker.is_free(q_wall)
+    # certified edges follow reveals too (their cached per-level requests are rebuilt)
+    sweep = (np.array([math.pi - 1.0, 0.0, 0.0]), np.array([math.pi + 0.3, 0.0, 0.0]))
+    assert truth.is_free(sweep[0]) and truth.is_free(sweep[1])
+    assert checker.edge_free(*sweep, 0.05) and not truth.edge_free(*sweep, 0.05)
+    world.reveal("wall")
+    assert not checker.edge_free(*sweep, 0.05)
+    assert not checker.edges_free(sweep[0][None], sweep[1][None], 0.05)[0]
+    world.reset()
+    assert checker.edges_free(sweep[0][None], sweep[1][None], 0.05)[0]
     twin = checker.copy()
     assert twin is not checker and twin.geom_data is not checker.geom_data
     np.testing.assert_array_equal(twin.is_free_batch(Q), loop)
@@ -296,38 +306,272 @@ def test_batch_equals_loop_and_hidden_obstacles():
     assert np.all(wide.is_free_batch(Q) <= loop) and wide.is_free_batch(Q).sum() < loop.sum()
 
 
-def test_edges():
-    spec = SPEC["planar_3link"]
+# ------------------------------------------------------------- edge checks
+def clearance_fn(spec, world, margin=0.0, hazard_clearance=False):
+    """f(Q): min over obstacles, self pairs and hazards of (2-D signed distance − required
+    clearance); an edge is valid when f > 0 all along it."""
+    discs, polys = scene_2d(world)  # obstacles only
+    hazards = [h for h in world if isinstance(h, Hazard)]
+    haz_polys = [list(h.shape.vertices_xz) for h in hazards]
+    haz_need = [max(margin, h.clearance if hazard_clearance else 0.0) for h in hazards]
+
+    def f(Q):
+        obs, selfd = brute_force(Q, spec.lengths, spec.radius, discs, polys)
+        out = np.minimum(obs, selfd) - margin
+        for P, need in zip(haz_polys, haz_need, strict=True):
+            d, _ = brute_force(Q, spec.lengths, spec.radius, (), [P], False)
+            out = np.minimum(out, d - need)
+        return out
+
+    return f
+
+
+def brute_force_edges(f, Q0, Q1, reach, tau=0.0, step=1e-4):
+    """Exact 2-D verdict on straight edges, sampled at joint steps ≤ ``step`` where needed.
+
+    Returns (status, evaluations): +1 if f > tau is proven all along the edge, -1 if
+    a sample has f ≤ tau, 0 if neither after sampling at ≤ ``step`` rad (near contact,
+    every sample above tau). Independent of mpd_pin: f is the exact 2-D geometry and
+    the only bound is the crude |df/dt| ≤ 2·reach·Σ|Δq_k| (every point of the arm is
+    within ``reach`` of every joint axis; two links' relative speed is at most the sum
+    of theirs). An interval [a, b] with (f(a) + f(b) − L·(b − a)) / 2 > tau is free;
+    otherwise it is bisected. So wherever the edge is not proven free it is sampled at
+    ≤ ``step``: "a sample at step 1e-4 collides" is decided exactly as by sampling the
+    whole edge at that step, at a fraction of the cost.
+    """
+    D = Q1 - Q0
+    lipschitz = 2 * reach * np.abs(D).sum(axis=1)
+    fa, fb = f(Q0), f(Q1)
+    status = np.where((fa <= tau) | (fb <= tau), -1, 1)
+    e = np.flatnonzero(status > 0)
+    a, b, va, vb = np.zeros(e.size), np.ones(e.size), fa[e], fb[e]
+    evals = 2 * len(Q0)
+    while e.size:
+        open_ = (va + vb - lipschitz[e] * (b - a)) / 2 <= tau
+        e, a, b, va, vb = e[open_], a[open_], b[open_], va[open_], vb[open_]
+        fine = np.abs(D[e]).max(axis=1) * (b - a) <= step
+        status[e[fine]] = np.minimum(status[e[fine]], 0)
+        e, a, b, va, vb = e[~fine], a[~fine], b[~fine], va[~fine], vb[~fine]
+        if not e.size:
+            break
+        m = (a + b) / 2
+        vm = f(Q0[e] + m[:, None] * D[e])
+        evals += e.size
+        status[e[vm <= tau]] = -1
+        go = status[e] >= 0
+        e, a, b, va, vb, m, vm = (x[go] for x in (e, a, b, va, vb, m, vm))
+        e = np.concatenate([e, e])
+        a, b = np.concatenate([a, m]), np.concatenate([m, b])
+        va, vb = np.concatenate([va, vm]), np.concatenate([vm, vb])
+    return status, evals
+
+
+HAZARD = Hazard(Polygon.planar([(0.9, -0.4), (1.3, -0.4), (1.1, -0.1)], name="hot"), 0.08)
+
+
+@pytest.mark.parametrize(
+    "name, margin, hazard_clearance",
+    [("planar_3link", 0.0, True), ("planar_4link", 0.01, False)],
+)
+def test_certified_edges_vs_brute_force(name, margin, hazard_clearance):
+    """1100 random edges per arm (2200 in all) among obstacles and a hazard.
+
+    Every edge the certified check accepts is free at 100× finer discrete resolution
+    and against the exact 2-D geometry sampled at 1e-4 rad; it accepts every edge
+    whose exact clearance exceeds 0.05 m all along (not uselessly conservative).
+    """
+    spec = SPEC[name]
+    arm = mp.builtin_arm(name)
+    world = World([*scene(len(spec.lengths)), HAZARD])
+    checker = CollisionChecker(arm, world, margin=margin, hazard_clearance=hazard_clearance)
+    assert checker.edge_mode == "certified"
+    rng = np.random.default_rng(21)
+    K, res = 1100, 0.1
+    Q0 = rng.uniform(arm.lower_limits, arm.upper_limits, size=(K, arm.nq))
+    Q1 = Q0 + rng.uniform(-0.4, 0.4, size=(K, arm.nq))
+    cert = checker.edges_free(Q0, Q1, res)
+    stats = dict(checker.last_certify_stats)
+    disc = checker.edges_free(Q0, Q1, res, mode="discrete")
+    f = clearance_fn(spec, world, margin, hazard_clearance)
+    reach = sum(spec.lengths) + 2 * spec.radius
+    truth, evals = brute_force_edges(f, Q0, Q1, reach)
+    far, _ = brute_force_edges(f, Q0, Q1, reach, tau=0.05)
+    # informative: plenty of both, some near contact
+    assert 0.25 < cert.mean() < 0.75 and (far > 0).sum() > 100
+    # sound: nothing accepted collides, at 100x finer resolution or in exact 2-D
+    assert not np.any(cert & (truth < 0)), np.flatnonzero(cert & (truth < 0))
+    assert checker.edges_free(Q0[cert], Q1[cert], res / 100, mode="discrete").all()
+    # never accepts what the discrete check rejects; misses nothing exactly free by 0.05 m
+    assert not np.any(cert & ~disc)
+    assert cert[far > 0].all()
+    # at most the near-contact band separates it from the exact verdict
+    lost = (truth > 0) & ~cert
+    assert lost.sum() <= 2, np.flatnonzero(lost)
+    print(f"{name}: certified accepts {cert.mean():.4f}, discrete {disc.mean():.4f}, exact "
+          f"free {(truth > 0).mean():.4f} (+{(truth == 0).sum()} near contact), free by "
+          f"0.05 m {(far > 0).sum()}: certified {cert[far > 0].mean():.3f}, discrete "
+          f"{disc[far > 0].mean():.3f}; discrete accepts {(disc & (truth < 0)).sum()} "
+          f"colliding; {stats}; brute force {evals} evaluations")
+
+
+def test_certified_single_equals_batch_and_endpoints():
     arm = mp.builtin_arm("planar_3link")
-    world = scene(3)
-    checker = CollisionChecker(arm, world)
+    world = World([*scene(3), HAZARD])
+    checker = CollisionChecker(arm, world, hazard_clearance=True)
     rng = np.random.default_rng(9)
-    Q0 = rng.uniform(arm.lower_limits, arm.upper_limits, size=(400, 3))
-    Q1 = Q0 + rng.uniform(-1.0, 1.0, size=(400, 3))
-    res = 0.05
-    batch = checker.edges_free(Q0, Q1, res)
-    loop = np.array([checker.edge_free(a, b, res) for a, b in zip(Q0, Q1, strict=True)])
-    np.testing.assert_array_equal(batch, loop)
-    assert 0.1 < batch.mean() < 0.9
-    # Discrete checking can miss an overlap thinner than the sweep between two checks:
-    # over 20,000 such edges about 0.15 % of those accepted at 0.05 rad collide at
-    # 0.005 rad (bench/collision.py prints the rate). With this seed none of the ~90
-    # accepted edges does; the exact brute force confirms it below.
-    discs, polys = scene_2d(world)
-    for a, b in zip(Q0[batch], Q1[batch], strict=True):
-        fine = edge_configurations(a, b, res / 10)
-        assert checker.is_free_batch(fine).all()
-        obs, selfd = brute_force(fine, spec.lengths, spec.radius, discs, polys)
-        assert np.all(np.minimum(obs, selfd) > 0)
-    # both ends are checked, and the step bound holds
+    Q0 = rng.uniform(arm.lower_limits, arm.upper_limits, size=(150, 3))
+    Q1 = Q0 + rng.uniform(-1.0, 1.0, size=(150, 3))
+    for mode in ("certified", "discrete"):
+        batch = checker.edges_free(Q0, Q1, 0.05, mode=mode)
+        loop = [checker.edge_free(a, b, 0.05, mode=mode) for a, b in zip(Q0, Q1, strict=True)]
+        np.testing.assert_array_equal(batch, loop)
+        assert 0.1 < batch.mean() < 0.9
+    # a discrete checker by default, and copies keep the mode
+    discrete = CollisionChecker(arm, world, hazard_clearance=True, edge_mode="discrete")
+    np.testing.assert_array_equal(discrete.edges_free(Q0, Q1, 0.05),
+                                  checker.edges_free(Q0, Q1, 0.05, mode="discrete"))
+    assert discrete.copy().edge_mode == "discrete"
+    # both ends count, and a free point is an edge
     free_q = Q0[checker.is_free_batch(Q0)][0]
     bad_q = Q0[~checker.is_free_batch(Q0)][0]
-    assert not checker.edge_free(free_q, bad_q, res) and not checker.edge_free(bad_q, free_q, res)
-    assert checker.edge_free(free_q, free_q, res)
+    for mode in ("certified", "discrete"):
+        assert not checker.edge_free(free_q, bad_q, 0.05, mode=mode)
+        assert not checker.edge_free(bad_q, free_q, 0.05, mode=mode)
+        assert checker.edge_free(free_q, free_q, 0.05, mode=mode)
+    assert checker.edges_free(np.zeros((0, 3)), np.zeros((0, 3)), 0.05).shape == (0,)
     E = edge_configurations(np.zeros(3), np.array([1.0, -0.3, 0.0]), 0.1)
     assert len(E) == 11 and np.allclose(E[0], 0) and np.allclose(E[-1], [1.0, -0.3, 0.0])
     assert np.abs(np.diff(E, axis=0)).max() <= 0.1 + 1e-12
-    assert checker.edges_free(np.zeros((0, 3)), np.zeros((0, 3)), res).shape == (0,)
+
+
+def test_certified_thin_obstacle_and_too_close_to_call():
+    """A thin wall between two checks of the discrete edge check; a graze at 1e-8 m."""
+    arm = mp.builtin_arm("planar_3link")  # links 0.5, 0.4, 0.3 m, radius 0.03 m
+    # Joint 1 turns 0 → 0.1 rad: the tip sweeps an arc of 0.12 m. A 2 mm wall across it
+    # at 0.05 rad sits between the discrete checks at 0.1 rad resolution.
+    c, s = math.cos(0.05), math.sin(0.05)
+    wall = Box.planar((1.1 * c, 1.1 * s), 0.002, 0.15, angle=0.05 + math.pi / 2, name="wall")
+    checker = CollisionChecker(arm, World([wall]))
+    q0, q1 = np.zeros(3), np.array([0.1, 0.0, 0.0])
+    assert checker.is_free(q0) and checker.is_free(q1)
+    assert not checker.is_free(np.array([0.05, 0.0, 0.0]))
+    assert checker.edge_free(q0, q1, 0.1, mode="discrete")  # the discrete check misses it
+    assert not checker.edge_free(q0, q1, 0.1)
+    assert not checker.edges_free(q0[None], q1[None], 0.1)[0]
+    # Straight arm along x: its end face is at x = 1.2. A disc just beyond it.
+    for gap, expect in ((1e-8, False), (1e-3, True)):
+        disc = Cylinder.planar((1.2 + 0.1 + gap, 0.0), 0.1, name="disc")
+        near = CollisionChecker(arm, World([disc]))
+        assert near.is_free(q0)
+        assert near.edge_free(q0, q0, 0.05) is expect
+        assert near.last_certify_stats["too_close"] == (0 if expect else 1)
+    # a coarser minimum step gives up sooner
+    coarse = CollisionChecker(arm, World([Cylinder.planar((1.3 + 1e-3, 0.0), 0.1)]),
+                              min_step=0.01)
+    assert not coarse.edge_free(q0, q0, 0.05)
+
+
+def _geometry_points(go, rng, n=12):
+    """Corners of a geometry's local AABB and random points inside, in its joint frame."""
+    geom = go.geometry
+    lo, hi = np.asarray(geom.aabb_local.min_), np.asarray(geom.aabb_local.max_)
+    corners = np.array([[(lo, hi)[b >> i & 1][i] for i in range(3)] for b in range(8)])
+    P = np.vstack([corners, rng.uniform(lo, hi, size=(n, 3))])
+    return P @ go.placement.rotation.T + go.placement.translation
+
+
+@pytest.mark.parametrize("name", ["planar_3link", "planar_4link", "panda"])
+def test_displacement_bound(name):
+    """Points of the geometries (AABB corners and random points inside), moved by forward
+    kinematics along random segments in 400 steps: their path lengths never exceed the
+    pair's bound. Obstacle pairs: the arm geometry's points in the world. Self pairs:
+    both geometries' points in the frame of their deepest common joint (the distance
+    does not depend on the frame; the joints they share move both rigidly), summed."""
+    if name == "panda":
+        arm = mp.Arm.from_example_robot_data("panda")
+        world = World([Box((0.2, 0.2, 0.2), (0.5, 0.0, 0.4), name="box")])
+    else:
+        arm = mp.builtin_arm(name)
+        world = scene(len(SPEC[name].lengths))
+    checker = CollisionChecker(arm, world)
+    model, gm = checker.model, checker.geom_model
+    data = model.createData()
+    rng = np.random.default_rng(5)
+    n_arm = len(checker.arm_geometry_ids)
+    points = [_geometry_points(gm.geometryObjects[g], rng) for g in range(n_arm)]
+    joint_of = [gm.geometryObjects[g].parentJoint for g in range(n_arm)]
+
+    def chain(j):
+        out = [j]
+        while j > 0:
+            j = model.parents[j]
+            out.append(j)
+        return out
+
+    ratios = []
+    for _ in range(6 if name == "panda" else 25):
+        q0 = rng.uniform(arm.lower_limits, arm.upper_limits)
+        q1 = q0 + rng.uniform(-0.5, 0.5, size=arm.nq)
+        bound = checker.displacement_bounds(q0, q1)
+        assert bound.shape == (len(gm.collisionPairs),) and np.all(bound >= 0)
+        R = np.empty((401, model.njoints, 3, 3))  # joint placements at 401 configurations
+        p = np.empty((401, model.njoints, 3))
+        for s, t in enumerate(np.linspace(0.0, 1.0, 401)):
+            pin.forwardKinematics(model, data, q0 + t * (q1 - q0))
+            for j in range(model.njoints):
+                R[s, j], p[s, j] = data.oMi[j].rotation, data.oMi[j].translation
+
+        def path_length(g, frame, R=R, p=p):
+            """Longest path of geometry g's points, expressed in joint ``frame``'s frame."""
+            j = joint_of[g]
+            X = np.einsum("sij,nj->sni", R[:, j], points[g]) + p[:, j, None, :]
+            X = np.einsum("sji,snj->sni", R[:, frame], X - p[:, frame, None, :])
+            return np.linalg.norm(np.diff(X, axis=0), axis=-1).sum(axis=0).max()
+
+        for k, cp in enumerate(gm.collisionPairs):
+            a, b = int(cp.first), int(cp.second)
+            if a >= n_arm:
+                a, b = b, a
+            if b >= n_arm:  # fixed obstacle
+                length = path_length(a, 0)
+            else:
+                common = set(chain(joint_of[b]))
+                lca = next(j for j in chain(joint_of[a]) if j in common)
+                length = path_length(a, lca) + path_length(b, lca)
+            assert length <= bound[k] * (1 + 1e-9) + 1e-12, (k, length, bound[k])
+            if bound[k] > 0:
+                ratios.append(length / bound[k])
+    ratios = np.array(ratios)
+    assert ratios.max() > 0.5  # not vacuous
+    print(f"{name}: path length / bound over {len(ratios)} pair-segments: "
+          f"median {np.median(ratios):.2f}, max {ratios.max():.3f}")
+
+
+def test_panda_certified_edges():
+    arm = mp.Arm.from_example_robot_data("panda")
+    world = World([Box((0.3, 0.3, 0.3), (0.5, 0.0, 0.3), name="box"),
+                   Box((0.2, 0.6, 0.1), (-0.4, 0.2, 0.6), name="shelf")])
+    checker = CollisionChecker(arm, world)
+    rng = np.random.default_rng(8)
+    K = 40
+    Q0 = rng.uniform(arm.lower_limits, arm.upper_limits, size=(K, arm.nq))
+    Q1 = np.clip(Q0 + rng.uniform(-0.4, 0.4, size=Q0.shape), arm.lower_limits, arm.upper_limits)
+    cert = checker.edges_free(Q0, Q1, 0.05)
+    stats = dict(checker.last_certify_stats)
+    meshes = [go.name for go in arm.collision_model.geometryObjects if "finger" not in go.name]
+    assert checker.certification_hulls == sorted(meshes) and len(meshes) == 9
+    fine = checker.edges_free(Q0, Q1, 0.002, mode="discrete")
+    # clear by 2 cm at samples 0.002 rad apart, hence free all along (between two samples
+    # no point is farther than 0.001 rad x 4.6 m/rad = 4.6 mm from one: S_p < 4.6 m/rad)
+    clear = CollisionChecker(arm, world, margin=0.02).edges_free(Q0, Q1, 0.002, mode="discrete")
+    assert not np.any(cert & ~fine)
+    assert cert[clear].all()
+    assert 0.2 < cert.mean() < 0.9 and clear.sum() >= 5
+    assert checker.displacement_bounds(np.zeros(7), np.ones(7)).max() < 4.6  # = max S_p
+    loop = [checker.edge_free(a, b, 0.05) for a, b in zip(Q0[:10], Q1[:10], strict=True)]
+    np.testing.assert_array_equal(loop, cert[:10])
+    print(f"panda: certified {cert.mean():.3f}, fine discrete {fine.mean():.3f}, clear by 2 cm "
+          f"{clear.mean():.3f}; {stats}")
 
 
 def test_hazards():
@@ -389,6 +633,9 @@ def test_panda_box():
         lambda c: c.edge_free(np.zeros(3), np.ones(3), 0.0),
         lambda c: c.edge_free(np.zeros(3), np.ones(3), -0.1),
         lambda c: c.edges_free(np.zeros((2, 3)), np.zeros((3, 3)), 0.1),
+        lambda c: c.edge_free(np.zeros(3), np.ones(3), 0.1, mode="exact"),
+        lambda c: c.edges_free(np.zeros((1, 3)), np.ones((1, 3)), 0.1, mode="continuous"),
+        lambda c: c.displacement_bounds(np.zeros(3), np.ones(2)),
         lambda c: c.clearance([np.nan] * 3),
         lambda c: c.reveal("nonexistent"),
     ],
@@ -409,5 +656,9 @@ def test_bad_constructor():
         CollisionChecker(arm, num_threads=0)
     with pytest.raises(ValueError):
         CollisionChecker(arm, single_backend="gpu")
+    with pytest.raises(ValueError):
+        CollisionChecker(arm, edge_mode="fast")
+    with pytest.raises(ValueError):
+        CollisionChecker(arm, min_step=0.0)
     assert CollisionChecker(arm).single_backend == "pairs"
     assert CollisionChecker(mp.Arm.from_example_robot_data("panda")).single_backend == "broadphase"

@@ -102,24 +102,27 @@ edge is proven free at any value.
 (Panda, margin 0.1 m: 6.3e3 vs 6.9e4 configurations/s at 0). Certification
 queries therefore run on a second geometry model where each arm mesh whose
 convex hull's volume is within 0.1 % of its own is replaced by that hull (all
-nine Panda meshes: ≤ 0.03 %); GJK on a hull does not slow down (5.3e4/s at 0.1 m). The
-hull contains the mesh, so its clearance certifies the mesh; exact checks stay
-on the meshes. A mesh that is not nearly convex is certified on itself.
+nine Panda meshes: ≤ 0.03 %); GJK on a hull does not slow down (5.3e4/s at
+0.1 m). The hull contains the mesh, so its clearance certifies the mesh; exact
+checks stay on the meshes. A mesh that is not nearly convex is certified on
+itself.
 
-*Measured* (bench/collision.py, resolution 0.05 rad, 2 threads, best of 3 on the
-shared 2-core machine under load 4–5, so ±50 %): 4000 random edges of the
-3-link arm among 2 obstacles: discrete 2.1–2.4e4 edges/s, certified 8.4–8.7e3
-(2.4–2.8× the discrete time; 6.8 certification + ≤ 1.9 exact queries per
-edge); 500 random Panda edges among 2 boxes: discrete 4.8–7.1e3, certified
-1.6–2.3e3 (2.1–4.4×; 2.4–4.5× slower again if certified on the meshes instead
-of their hulls). Roadmap-like edges (10 nearest neighbours among free samples):
-1.9–2.3× (planar), 2.7–3.4× (Panda). Acceptance: random edges 0.5570 discrete
-vs 0.5567 certified (planar), 0.5840 vs 0.5820 (Panda); roadmap-like 0.9412 vs
-0.9403 and 0.7017 vs 0.6970. Every edge the discrete check accepted and the
-certified one rejected collides (found at 1/20000 of the edge); no certified
-edge collides at 1/100 of the resolution; no edge was too close to call. A
-loop of single ``edge_free`` calls runs 1.4–4.9e3 (planar) / 0.9–1.5e3 (Panda)
-certified edges/s.
+*Measured* (bench/collision.py, resolution 0.05 rad, best of 3, shared 2-core
+machine at load ≈ 1; 1 thread / 2 threads; under load 4–5 all figures drop up
+to 3×, the ratios stay within ~2–4.5×). 4000 random edges of the 3-link arm
+among 2 obstacles: discrete 6.0e4 / 8.9e4 edges/s, certified 2.8e4 / 4.1e4
+(2.2× the discrete time; per edge 6.8 certification + ≤ 1.9 exact queries).
+500 random Panda edges among 2 boxes: discrete 9.5e3 / 1.0e4, certified
+3.6e3 / 2.7e3 (2.7–3.7×; certifying on the meshes instead of the hulls: 1.1–2.1×
+slower again, 4.5× under load). Roadmap-like edges (10 nearest neighbours among
+free samples): 1.7–1.8× (planar), 2.3–2.8× (Panda). Resolutions 0.025 and 0.1
+rad cost about the same. Acceptance, discrete vs certified: random edges 0.5570
+vs 0.5567 (planar), 0.5840 vs 0.5820 (Panda); roadmap-like 0.9412 vs 0.9403 and
+0.7017 vs 0.6970. Every edge the discrete check accepted and the certified one
+rejected collides (found sampling at 1/20000 of the edge); no certified edge
+collides at 1/100 of the resolution; no edge was too close to call. A loop of
+single ``edge_free`` calls: 5–7e3 (planar) / 2.2–2.4e3 (Panda) certified
+edges/s.
 
 Backends (bench/collision.py; shared 2-core machine under load ≈ 2, best of 3)
 -----------------------------------------------------------------------------

@@ -152,25 +152,25 @@ class DynamicPlanResult:
 def _resolve_endpoints(
     problem: DynamicProblem, kin: TwoLinkKinematics, fcs: FreeCartesianSpace
 ) -> tuple[int, list[int]]:
+    """Start state and goal states; ValueError if unreachable or in collision at t = 0."""
     grid = problem.grid
     sb = branch_index(problem.start_branch)
+    if problem.goal_branch == "any":
+        goal_branches = [0, 1]
+    else:
+        goal_branches = [branch_index(problem.goal_branch)]
+    cells = []
     for what, p in (("start", problem.start), ("goal", problem.goal)):
-        kin_branches = [sb] if what == "start" else (
-            [0, 1] if problem.goal_branch == "any" else [branch_index(problem.goal_branch)]
-        )
-        cell = grid.nearest_cell(p)
-        cp = grid.point(cell)
-        ok_any = False
-        for b in kin_branches:
-            try:
-                kin.ik_point(cp, b, what=f"{what} cell")
-                ok_any = True
-            except ValueError as exc:
-                err = exc
-        if not ok_any:
-            raise err
-    start_cell = grid.nearest_cell(problem.start)
-    goal_cell = grid.nearest_cell(problem.goal)
+        try:
+            cells.append(grid.nearest_cell(p))
+        except ValueError as exc:
+            raise ValueError(f"{what}: {exc}") from None
+    start_cell, goal_cell = cells
+    kin.ik_point(grid.point(start_cell), sb, what="start cell")  # ValueError if unreachable
+    goal_states = [fcs.state(goal_cell, b) for b in goal_branches
+                   if fcs.reachable[fcs.state(goal_cell, b)]]
+    if not goal_states:
+        kin.ik_point(grid.point(goal_cell), goal_branches[0], what="goal cell")  # raises
     if start_cell == goal_cell:
         raise ValueError("start and goal fall on the same grid cell")
     start_state = fcs.state(start_cell, sb)
@@ -181,11 +181,6 @@ def _resolve_endpoints(
             f"start ({p[0]:.3f}, {p[1]:.3f}) m with elbow {BRANCHES[sb]} is in collision at t = 0 "
             f"(margin {problem.margin} m)"
         )
-    if problem.goal_branch == "any":
-        goal_states = [fcs.state(goal_cell, b) for b in (0, 1) if fcs.reachable[fcs.state(
-            goal_cell, b)]]
-    else:
-        goal_states = [fcs.state(goal_cell, branch_index(problem.goal_branch))]
     if not any(free0[s] for s in goal_states):
         p = grid.point(goal_cell)
         raise ValueError(

@@ -135,6 +135,7 @@ def run_dynamic_scenario(
     *,
     seed: int | None = None,
     show_progress: bool = True,
+    plots: bool = True,
 ) -> dict:
     """Plan a ``dynamic2link`` scenario (parsed TOML ``data``), write results to ``out_dir``.
 
@@ -146,7 +147,8 @@ def run_dynamic_scenario(
     ``pso_cost_curve`` (best length per iteration, m; null while no feasible
     particle), ``events`` (the D* execution's ``stop`` / ``backward`` /
     ``switch`` events with their ``sample`` index), plus ``dstar_samples``,
-    ``min_clearance`` (m) and timings (s).
+    ``min_clearance`` (m) and timings (s). ``plots=False`` skips the PNG
+    figures (they take most of a run's time).
 
     Raises ConfigError/ValueError for bad input and
     :class:`~mpd_pin.twolink.planner.TrappedError` (a NoPathError) when the arm
@@ -177,7 +179,7 @@ def run_dynamic_scenario(
     result = result_dict(scn, res, use_seed)
     out_dir.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    result["plots"] = write_plots(scn, res, out_dir)
+    result["plots"] = write_plots(scn, res, out_dir) if plots else []
     result["timings"]["plots"] = round(time.perf_counter() - t0, 4)
     result["timings"]["total"] = round(time.perf_counter() - t_all, 4)
     with open(out_dir / "result.json", "w", encoding="utf-8") as f:

@@ -168,3 +168,19 @@ def test_bad_start_and_goal(start, goal, match):
     ob = MovingObstacle("o", 0.1, static((0.0, 0.6)))
     with pytest.raises(ValueError, match=match):
         plan_dynamic(_problem([ob], start, goal))
+
+
+@pytest.mark.parametrize(
+    "kw, match",
+    [
+        (dict(margin=-0.01), "margin"),
+        (dict(max_joint_step=0.0), "max_joint_step"),
+        (dict(start_branch="left"), "branch"),
+        (dict(goal_branch="middle"), "branch"),
+        (dict(spline_bc="periodic"), "spline_bc"),
+        (dict(lookahead=0), "lookahead"),
+    ],
+)
+def test_problem_validation(kw, match):
+    with pytest.raises(ValueError, match=match):
+        _problem([], (0.5, 0.5), (-0.5, 0.5), **kw)

@@ -67,6 +67,9 @@ def test_every_sample_is_collision_free(runs, name):
             d = min(_segment_distance(c, np.zeros(2), elbow), _segment_distance(c, elbow, ee))
             worst = min(worst, d - ob["radius"] - LINK_RADIUS)
     assert worst > 0.0, worst
+    assert res["capsule_clearance"]["pso_samples"] == pytest.approx(worst, abs=1e-12)
+    # Coal's clearance of the cylinder links keeps the scenario's margin.
+    assert res["min_clearance"] > res["margin"]
 
 
 @pytest.mark.parametrize("name", ["env1", "env2"])

@@ -26,8 +26,10 @@ So every sample of the D* motion is collision-free by construction (states are
 checked against the obstacles of the sample at which the arm occupies them),
 and consecutive samples differ by at most ``max_joint_step`` in every joint.
 
-Then PSO (:mod:`~mpd_pin.twolink.pso`) chooses via points on that motion; the
-executed smoothed motion is the best spline found, re-checked sample by sample.
+Then PSO (:mod:`~mpd_pin.twolink.pso`) chooses via points on that motion (the
+swarm starts at random via points, plus one particle with evenly spread ones);
+the executed smoothed motion is the best spline found, re-checked sample by
+sample.
 If PSO finds nothing shorter than the D* motion, the D* motion itself is
 executed (``pso_improved`` is False), so the smoothed path is never longer.
 Path lengths are end-effector polylines through the positions at the motion
@@ -96,6 +98,37 @@ class DynamicProblem:
     num_via: int = 10
     spline_bc: str = "clamped"
     num_threads: int = 1
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.arm, Arm):
+            raise ValueError(f"arm must be an mpd_pin.Arm, got {type(self.arm).__name__}")
+        if not isinstance(self.scene, MovingScene):
+            raise ValueError("scene must be a MovingScene")
+        if not isinstance(self.grid, Grid):
+            raise ValueError("grid must be a Grid")
+        if not isinstance(self.pso, PSOOptions):
+            raise ValueError("pso must be a PSOOptions")
+        branch_index(self.start_branch)
+        if self.goal_branch != "any":
+            branch_index(self.goal_branch)
+        for name in ("start", "goal"):
+            p = np.asarray(getattr(self, name), dtype=float)
+            if p.shape != (2,) or not np.all(np.isfinite(p)):
+                raise ValueError(f"{name} must be one finite (x, z) point in m")
+            setattr(self, name, (float(p[0]), float(p[1])))
+        checks = (
+            ("margin", self.margin >= 0), ("max_joint_step", self.max_joint_step > 0),
+            ("switch_penalty", self.switch_penalty >= 0), ("max_samples", self.max_samples >= 1),
+            ("lookahead", self.lookahead >= 1), ("num_via", self.num_via >= 1),
+            ("num_threads", self.num_threads >= 1),
+        )
+        for name, ok in checks:
+            value = getattr(self, name)
+            if not ok or not math.isfinite(value):
+                raise ValueError(f"{name} out of range: {value!r}")
+        if self.spline_bc not in ("clamped", "natural", "not-a-knot"):
+            raise ValueError(f"spline_bc must be clamped, natural or not-a-knot, got "
+                             f"{self.spline_bc!r}")
 
     @property
     def ts(self) -> float:
@@ -344,7 +377,7 @@ def plan_dynamic(
     smoother: ViaPointSmoother | None = None
     motion = dstar_as_motion
     improved = False
-    if dmotion.num_samples >= 3 and problem.pso.iterations >= 0:
+    if dmotion.num_samples >= 3:
         smoother = ViaPointSmoother(
             kin,
             checker,

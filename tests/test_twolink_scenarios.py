@@ -118,13 +118,13 @@ def test_events(runs):
         n = len(res["dstar_samples"])
         for e in res["events"]:
             assert 1 <= e["sample"] < n
-        dq = [s["ee"] for s in res["dstar_samples"]]
+        state = [(tuple(s["ee"]), s["branch"]) for s in res["dstar_samples"]]
         for e in res["events"]:
             k = e["sample"]
             if e["type"] == "stop":
-                assert dq[k] == dq[k - 1]
+                assert state[k] == state[k - 1]
             elif e["type"] == "backward":
-                assert dq[k] != dq[k - 1]
+                assert state[k] != state[k - 1]
 
 
 def test_env1_obstacle_follows_its_trajectory(runs):

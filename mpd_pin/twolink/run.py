@@ -227,10 +227,11 @@ def run_dynamic_scenario(
         def progress(stage: str, done: int, total: int | None) -> None:
             bar = bars.get(stage)
             if bar is None:
+                for other in bars.values():  # one bar at a time: the previous stage is over
+                    other.close()
                 desc = "D* execution (samples)" if stage == "dstar" else "PSO (iterations)"
                 bar = bars[stage] = tqdm(total=total, desc=desc, leave=False)
-            bar.n = done
-            bar.refresh()
+            bar.update(done - bar.n)
 
     try:
         res = plan_dynamic(scn.problem, seed=use_seed, progress=progress)

@@ -189,3 +189,16 @@ def test_cli_reports_bad_scenario_in_one_line(tmp_path, capsys):
     assert cli_main(["run", str(bad), "--out", str(tmp_path / "o"), "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "wobble" in err
+
+
+def test_degenerate_runs_write_valid_json(tmp_path):
+    # Goal one cell away: two samples, nothing to smooth.
+    res = run_dynamic_scenario(_bad(lambda d: d["task"].update(goal=[0.8, 0.1])), tmp_path,
+                               show_progress=False, plots=False)
+    assert res["num_samples"] == 2 and res["pso_cost_curve"] == []
+    assert res["path_length_pso"] == res["path_length_dstar"] == pytest.approx(0.05)
+    # No obstacles: clearances are reported as null, not as a non-JSON infinity.
+    res = run_dynamic_scenario(_bad(lambda d: d.update(obstacles=[])), tmp_path,
+                               show_progress=False, plots=False)
+    assert res["min_clearance"] is None and res["events"] == []
+    assert json.loads((tmp_path / "result.json").read_text())["num_samples"] == res["num_samples"]

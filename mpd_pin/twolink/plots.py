@@ -254,7 +254,8 @@ def plot_obstacle_motion(kin: TwoLinkKinematics, scene: MovingScene, duration: f
         ax.plot(c[:, i, 0], c[:, i, 1], "-", lw=1, label=ob.name)
         ax.plot(c[::10, i, 0], c[::10, i, 1], ".", ms=4, color="0.3")
         ax.add_patch(Circle(c[0, i], ob.radius, color=OBSTACLE_COLOR, alpha=0.3))
-    ax.legend(fontsize=8)
+    if scene.obstacles:
+        ax.legend(fontsize=8)
     ax.set_title(f"obstacle motion over {duration:.2f} s (dots every 10 samples)")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("z (m)")

@@ -174,7 +174,7 @@ def result_dict(scn: DynamicScenario, res: DynamicPlanResult, seed: int | None) 
         },
         "events": d.events,
         "event_counts": counts,
-        "min_clearance": float(min(clearances)),
+        "min_clearance": _finite_or_none(float(min(clearances))),
         "capsule_clearance": {
             "note": f"links as capsules of radius {r_link} m vs the discs (m); 'between' "
                     "interpolates the joints linearly over 10 steps between samples",
@@ -244,8 +244,8 @@ def run_dynamic_scenario(
     result["plots"] = write_plots(scn, res, out_dir) if plots else []
     result["timings"]["plots"] = round(time.perf_counter() - t0, 4)
     result["timings"]["total"] = round(time.perf_counter() - t_all, 4)
-    with open(out_dir / "result.json", "w", encoding="utf-8") as f:
-        json.dump(result, f, indent=1, allow_nan=False)
+    text = json.dumps(result, indent=1, allow_nan=False)  # fails before anything is written
+    (out_dir / "result.json").write_text(text, encoding="utf-8")
     return result
 
 

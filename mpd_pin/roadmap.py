@@ -385,7 +385,10 @@ def build_roadmap(
     """
     import time
 
-    from tqdm.auto import tqdm
+    if show_progress:
+        from tqdm.auto import tqdm
+    else:  # tqdm.auto warns in Jupyter without ipywidgets even when disabled
+        from tqdm import tqdm
 
     options = options or RoadmapOptions()
     arm = cost.drive.arm

@@ -613,10 +613,11 @@ NB03 = [
     ),
     md(
         """
-        With the scenario's 0.2 m sensor the hidden obstacle is already in range at the start
-        pose (printed above), so the repair happens before the first move. To see a repair
-        **while moving**, run the same scenario with a short-range sensor (`SHORT_RANGE`): the
-        arm starts along its initial plan and detects the obstacle on the way.
+        The step column above shows where the sensor first saw the obstacle with the
+        scenario's own range (with a longer range it can already be in sight at the start
+        pose, and the repair happens before the first move). The run below insists on a repair
+        **while moving** with a short-range sensor (`SHORT_RANGE`), trying seeds until the arm
+        has left the start node before it detects the obstacle.
         """
     ),
     code(

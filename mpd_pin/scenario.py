@@ -307,7 +307,9 @@ def parse_energy_scenario(
     motor_t = top.table("motor")
     try:
         motor = _motor(motor_t)
-    except ValueError as exc:
+    except ConfigError:
+        raise  # already names its key (motor.preset, motor.R, ...)
+    except ValueError as exc:  # DCMotor's own checks
         raise ConfigError(f"motor: {exc}") from None
     ctl = top.table("controller")
     kp = _gain(ctl, "kp", 40.0, arm.nq)

@@ -164,3 +164,19 @@ def test_bad_urdf_path(tmp_path):
     text = GOOD.replace('builtin = "planar_2link"', 'urdf = "missing.urdf"')
     res = run_cli("run", str(_write(tmp_path, text)), "--out", str(tmp_path / "o"), "--quiet")
     _assert_one_line_error(res, "URDF file not found")
+
+
+@pytest.mark.parametrize(
+    "motor, line",
+    [
+        ('preset = "turbo"', "mpd-pin: error: motor.preset: 'turbo' is not one of "
+                             "['paper', 'servo']"),
+        ("R = 'one'", "mpd-pin: error: motor.R: expected a number, got 'one'"),
+        ("R = 0.0", "mpd-pin: error: motor: DCMotor.R must be a finite number > 0, got 0.0"),
+    ],
+)
+def test_motor_errors_have_one_prefix(tmp_path, motor, line):
+    text = GOOD + f"\n    [motor]\n    {motor}\n"
+    res = run_cli("run", str(_write(tmp_path, text)), "--out", str(tmp_path / "o"), "--quiet")
+    _assert_one_line_error(res, line)
+    assert res.stderr.strip() == line

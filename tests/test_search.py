@@ -444,3 +444,49 @@ def test_search_package_imports_nothing_from_the_rest_of_mpd_pin() -> None:
                 ok = name.split(".")[0] in allowed_roots or name == "mpd_pin.errors"
                 ok = ok or name.startswith("mpd_pin.search")
                 assert ok, f"{f.name} imports {name}"
+
+
+def test_search_runs_without_loading_pinocchio_or_coal() -> None:
+    """A fresh interpreter plans with mpd_pin.search; Pinocchio and Coal stay unloaded."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from mpd_pin.search import Graph, MPDStarLite, DStarLite, AStar, Dijkstra\n"
+        "from mpd_pin.errors import NoPathError\n"
+        "import mpd_pin\n"
+        "g = Graph(4, [(0, 1, 1.0), (1, 3, 1.0), (0, 2, 0.5), (2, 3, 2.0)])\n"
+        "for P in (MPDStarLite, DStarLite, AStar, Dijkstra):\n"
+        "    p = P(g.copy(), 0, 3)\n"
+        "    assert p.plan().nodes == [0, 1, 3]\n"
+        "    p.update_edge(1, 3, float('inf'))\n"
+        "    assert p.plan().nodes == [0, 2, 3]\n"
+        "assert mpd_pin.NoPathError is NoPathError\n"
+        "bad = [m for m in sys.modules if m.split('.')[0] in ('pinocchio', 'coal', 'hppfcl')]\n"
+        "assert not bad, bad\n"
+        "print('ok')\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=False
+    )
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
+    # The lazy top-level names still resolve (and then do load Pinocchio).
+    code2 = (
+        "import sys\n"
+        "import mpd_pin as mp\n"
+        "assert 'pinocchio' not in sys.modules\n"
+        "assert set(mp.__all__) <= set(dir(mp))\n"
+        "assert mp.Arm.__name__ == 'Arm' and mp.Drive.__name__ == 'Drive'\n"
+        "assert 'pinocchio' in sys.modules\n"
+        "for name in mp.__all__:\n"
+        "    getattr(mp, name)\n"
+        "try:\n"
+        "    mp.no_such_name\n"
+        "except AttributeError:\n"
+        "    print('ok')\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code2], capture_output=True, text=True, timeout=120, check=False
+    )
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr

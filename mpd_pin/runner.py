@@ -121,7 +121,9 @@ def run_energy_scenario(
         "description": scn.description,
         "arm": scn.arm.name,
         "joint_names": scn.arm.joint_names,
-        "motor": asdict(scn.motor),
+        "motor": [asdict(m) for m in scn.motor]
+        if isinstance(scn.motor, list)
+        else asdict(scn.motor),
         "controller": {"kp": scn.kp, "kd": scn.kd, "feedforward": scn.feedforward},
         "roadmap": {
             "num_nodes": roadmap.num_nodes,

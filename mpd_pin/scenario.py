@@ -10,7 +10,12 @@ A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
 
     [motor]                    # preset "paper" (Table 7) or "servo", any field overridden
     preset = "paper"
-    gear_ratio = 5.0           # R, L, Kt, Ke, B, J, v_max also accepted
+    gear_ratio = 5.0           # R, L, Kt, Ke, B, J, v_max also accepted; each constant
+                               # may be one number or an array with one value per joint
+    # ... or one table per joint (exactly nq of them) instead of [motor]:
+    # [[motors]]
+    # preset = "servo"
+    # gear_ratio = 100.0
 
     [controller]
     kp = 40.0                  # V/rad, scalar or one per joint
@@ -85,7 +90,7 @@ class EnergyScenario:
     name: str
     description: str
     arm: Arm
-    motor: DCMotor
+    motor: DCMotor | list[DCMotor]  # one for every joint, or one per joint
     kp: float | list[float]
     kd: float | list[float]
     feedforward: bool
@@ -160,16 +165,67 @@ def _arm(t: Table, base: Path | None) -> Arm:
     return arm
 
 
-def _motor(t: Table) -> DCMotor:
+MOTOR_CONSTANTS = ("R", "L", "Kt", "Ke", "B", "J", "gear_ratio", "v_max")
+
+
+def _motor_one(t: Table, index: int | None = None) -> DCMotor:
+    """One motor from a table of scalars; with ``index``, array values give joint ``index``."""
     base = MOTOR_PRESETS[t.string("preset", "paper", choices=MOTOR_PRESETS)]
+    t.seen.update(MOTOR_CONSTANTS)  # every constant is a known key (for unknown-key errors)
     fields = {}
-    for name in ("R", "L", "Kt", "Ke", "B", "J", "gear_ratio"):
-        if t.has(name):
-            fields[name] = t.number(name)
-    if t.has("v_max"):
-        fields["v_max"] = t.number("v_max", positive=True)
+    for name in MOTOR_CONSTANTS:
+        if not t.has(name):
+            continue
+        if index is None:
+            fields[name] = t.number(name, positive=name == "v_max")
+        else:
+            val = t.numbers(name)
+            fields[name] = val if isinstance(val, float) else val[index]
+    if fields.get("v_max", 1.0) <= 0:
+        raise ConfigError(f"{t.path}.v_max: must be > 0, got {fields['v_max']}")
+    try:
+        return replace(base, **fields)
+    except ValueError as exc:  # DCMotor's own checks (R > 0, B ≥ 0, ...)
+        joint = "" if index is None else f" (joint {index})"
+        raise ConfigError(f"{t.path}{joint}: {exc}") from None
+
+
+def _motors(top: Table, nq: int) -> DCMotor | list[DCMotor]:
+    """``[motor]`` (constants scalar or one per joint) or ``[[motors]]`` (one table per joint).
+
+    Returns one DCMotor when every constant is a scalar, else a list of ``nq``.
+    """
+    if top.has("motor") and top.has("motors"):
+        raise ConfigError("give [motor] (shared or per-joint arrays) or [[motors]], not both")
+    if top.has("motors"):
+        tables = top.tables("motors")
+        if len(tables) != nq:
+            raise ConfigError(
+                f"motors: expected one [[motors]] table per joint ({nq}), got {len(tables)}"
+            )
+        motors = []
+        for t in tables:
+            motors.append(_motor_one(t))
+            t.done()
+        return motors
+    t = top.table("motor")
+    per_joint = []
+    for name in MOTOR_CONSTANTS:
+        if t.has(name) and isinstance(t.data[name], list):
+            val = t.numbers(name)
+            if len(val) != nq:
+                raise ConfigError(
+                    f"motor.{name}: expected one value or {nq} values (one per joint), "
+                    f"got {len(val)}"
+                )
+            per_joint.append(name)
+    if not per_joint:
+        motor = _motor_one(t)
+        t.done()
+        return motor
+    motors = [_motor_one(t, j) for j in range(nq)]
     t.done()
-    return replace(base, **fields)
+    return motors
 
 
 def _gain(t: Table, key: str, default: float, nq: int) -> float | list[float]:
@@ -304,13 +360,7 @@ def parse_energy_scenario(
     name = top.string("name", Path(source).stem if source else "scenario")
     description = top.string("description", "")
     arm = _arm(top.table("arm", required=True), base_dir)
-    motor_t = top.table("motor")
-    try:
-        motor = _motor(motor_t)
-    except ConfigError:
-        raise  # already names its key (motor.preset, motor.R, ...)
-    except ValueError as exc:  # DCMotor's own checks
-        raise ConfigError(f"motor: {exc}") from None
+    motor = _motors(top, arm.nq)
     ctl = top.table("controller")
     kp = _gain(ctl, "kp", 40.0, arm.nq)
     kd = _gain(ctl, "kd", 4.0, arm.nq)

@@ -1,6 +1,8 @@
 """The mpd-pin command: built-in scenarios end to end, result consistency, bad input."""
 
+import dataclasses
 import json
+import math
 import subprocess
 import sys
 import textwrap
@@ -180,3 +182,66 @@ def test_motor_errors_have_one_prefix(tmp_path, motor, line):
     res = run_cli("run", str(_write(tmp_path, text)), "--out", str(tmp_path / "o"), "--quiet")
     _assert_one_line_error(res, line)
     assert res.stderr.strip() == line
+
+
+def _parse(text, tmp_path):
+    path = _write(tmp_path, text)
+    return parse_energy_scenario(load_scenario_data(path), source=str(path))
+
+
+def test_per_joint_motor_arrays(tmp_path):
+    text = GOOD + "\n    [motor]\n    preset = 'paper'\n    gear_ratio = [9.0, 5.0]\n" \
+                  "    Kt = [0.02, 0.01]\n    R = 2.0\n"
+    scn = _parse(text, tmp_path)
+    assert [m.gear_ratio for m in scn.motor] == [9.0, 5.0]
+    assert [m.Kt for m in scn.motor] == [0.02, 0.01]
+    assert [m.R for m in scn.motor] == [2.0, 2.0]
+    assert all(m.L == mp.PAPER_MOTOR.L and m.B == mp.PAPER_MOTOR.B for m in scn.motor)
+    drive = scn.drive()
+    np.testing.assert_array_equal(drive.n, [9.0, 5.0])
+    np.testing.assert_array_equal(drive.armature, [81.0 * 0.01, 25.0 * 0.01])
+    np.testing.assert_array_equal(drive.torque_per_amp, [9.0 * 0.02, 5.0 * 0.01])
+
+
+def test_per_joint_motor_tables(tmp_path):
+    text = GOOD + "\n    [[motors]]\n    preset = 'servo'\n    gear_ratio = 50.0\n" \
+                  "    R = 1.0\n    L = 0.01\n" \
+                  "\n    [[motors]]\n    preset = 'paper'\n    gear_ratio = 9.0\n"
+    scn = _parse(text, tmp_path)
+    assert scn.motor == [dataclasses.replace(mp.SERVO_MOTOR, gear_ratio=50.0, R=1.0, L=0.01),
+                         dataclasses.replace(mp.PAPER_MOTOR, gear_ratio=9.0)]
+    drive = scn.drive()
+    np.testing.assert_array_equal(drive.Kt, [mp.SERVO_MOTOR.Kt, mp.PAPER_MOTOR.Kt])
+    np.testing.assert_array_equal(drive.v_max, [mp.SERVO_MOTOR.v_max, math.inf])
+    # Through the command: result.json lists one motor per joint.
+    res = run_cli("run", str(_write(tmp_path, text)), "--out", str(tmp_path / "o"), "--quiet",
+                  "--no-replay")
+    assert res.returncode == 0, res.stderr
+    result = json.loads((tmp_path / "o" / "result.json").read_text())
+    assert [m["gear_ratio"] for m in result["motor"]] == [50.0, 9.0]
+    assert [m["Kt"] for m in result["motor"]] == [mp.SERVO_MOTOR.Kt, mp.PAPER_MOTOR.Kt]
+
+
+@pytest.mark.parametrize(
+    "motor, line",
+    [
+        ("\n    [motor]\n    gear_ratio = [9.0, 5.0, 3.0]\n",
+         "motor.gear_ratio: expected one value or 2 values (one per joint), got 3"),
+        ("\n    [motor]\n    R = [1.0, 0.0]\n",
+         "motor (joint 1): DCMotor.R must be a finite number > 0, got 0.0"),
+        ("\n    [[motors]]\n    gear_ratio = 9.0\n",
+         "motors: expected one [[motors]] table per joint (2), got 1"),
+        ("\n    [[motors]]\n    R = 1.0\n    [[motors]]\n    gear = 2.0\n",
+         "motors[1]: unknown key(s) 'gear' (known here: B, J, Ke, Kt, L, R, gear_ratio, "
+         "preset, v_max)"),
+        ("\n    [[motors]]\n    gear_ratio = [9.0, 5.0]\n    [[motors]]\n",
+         "motors[0].gear_ratio: expected a number, got [9.0, 5.0]"),
+        ("\n    [motor]\n    R = 1.0\n    [[motors]]\n    R = 1.0\n    [[motors]]\n",
+         "give [motor] (shared or per-joint arrays) or [[motors]], not both"),
+    ],
+)
+def test_per_joint_motor_errors(tmp_path, motor, line):
+    res = run_cli("run", str(_write(tmp_path, GOOD + motor)), "--out", str(tmp_path / "o"),
+                  "--quiet")
+    _assert_one_line_error(res, line)
+    assert res.stderr.strip() == f"mpd-pin: error: {line}"

@@ -6,6 +6,9 @@
 Bad input (unknown scenario, malformed TOML or URDF, unknown keys, start or goal
 in collision, no path) prints one line on stderr and exits with status 2 (or 3
 when no path exists); nothing is left half-written in DIR but what was done.
+Any other exception (a bug, memory exhausted) prints one line
+``mpd-pin: internal error: <type>: <message>`` and exits with status 1; Ctrl-C
+prints ``mpd-pin: interrupted`` and exits with 130.
 """
 
 from __future__ import annotations
@@ -102,6 +105,10 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("mpd-pin: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:  # last resort: a bug or an exhausted resource, still one line
+        msg = " ".join(str(exc).split()) or "(no message)"
+        print(f"mpd-pin: internal error: {type(exc).__name__}: {msg}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -67,16 +67,31 @@ class Table:
             raise ConfigError(f"{self._name(key)}: expected true or false, got {val!r}")
         return val
 
-    def integer(self, key: str, default: Any = ..., minimum: int | None = None) -> int:
+    def integer(
+        self,
+        key: str,
+        default: Any = ...,
+        minimum: int | None = None,
+        maximum: int | None = None,
+    ) -> int:
         val = self.raw(key, default)
         if isinstance(val, bool) or not isinstance(val, int):
             raise ConfigError(f"{self._name(key)}: expected an integer, got {val!r}")
         if minimum is not None and val < minimum:
             raise ConfigError(f"{self._name(key)}: must be ≥ {minimum}, got {val}")
+        if maximum is not None and val > maximum:
+            raise ConfigError(f"{self._name(key)}: must be ≤ {maximum}, got {val}")
         return val
 
     def number(
-        self, key: str, default: Any = ..., *, positive: bool = False, nonnegative: bool = False
+        self,
+        key: str,
+        default: Any = ...,
+        *,
+        positive: bool = False,
+        nonnegative: bool = False,
+        minimum: float | None = None,
+        maximum: float | None = None,
     ) -> float:
         if key not in self.data and default is not ...:
             self.seen.add(key)
@@ -91,6 +106,10 @@ class Table:
             raise ConfigError(f"{self._name(key)}: must be > 0, got {val}")
         if nonnegative and val < 0:
             raise ConfigError(f"{self._name(key)}: must be ≥ 0, got {val}")
+        if minimum is not None and val < minimum:
+            raise ConfigError(f"{self._name(key)}: must be ≥ {minimum:g}, got {val:g}")
+        if maximum is not None and val > maximum:
+            raise ConfigError(f"{self._name(key)}: must be ≤ {maximum:g}, got {val:g}")
         return val
 
     def numbers(

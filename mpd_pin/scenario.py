@@ -238,23 +238,43 @@ def _gain(t: Table, key: str, default: float, nq: int) -> float | list[float]:
     return val
 
 
+#: Upper bounds of the roadmap parameters: far above the paper's roadmaps (150–250 nodes,
+#: k = 10) and what a workstation plans in minutes, low enough that a typo fails
+#: with a clear message instead of a MemoryError or a run of days.
+LIMITS = {
+    "num_nodes": 50_000,  # random samples
+    "k": 100,  # neighbours per node
+    "max_attempts": 100_000,  # draws per requested sample
+    "seed": 2**63 - 1,
+    "steps_per_edge": 100_000,  # RK4 steps (duration / dt) of the longest edge
+    "duration": 60.0,  # s per edge
+    "min_resolution": 1e-3,  # rad
+}
+
+
 def _options(t: Table) -> RoadmapOptions:
     d = RoadmapOptions()
     kw: dict[str, Any] = {}
     for name in ("num_nodes", "k", "seed", "max_attempts"):
-        kw[name] = t.integer(name, getattr(d, name), minimum=0 if name != "k" else 1)
-    for name in (
-        "resolution",
-        "duration",
-        "joint_speed",
-        "duration_quantum",
-        "min_duration",
-        "max_duration",
-        "dt",
-    ):
-        kw[name] = t.number(name, getattr(d, name), positive=True)
+        kw[name] = t.integer(
+            name, getattr(d, name), minimum=0 if name != "k" else 1, maximum=LIMITS[name]
+        )
+    kw["resolution"] = t.number(
+        "resolution", d.resolution, positive=True, minimum=LIMITS["min_resolution"]
+    )
+    for name in ("duration", "joint_speed", "duration_quantum", "min_duration", "max_duration"):
+        upper = LIMITS["duration"] if name != "joint_speed" else None
+        kw[name] = t.number(name, getattr(d, name), positive=True, maximum=upper)
+    kw["dt"] = t.number("dt", d.dt, positive=True)
     kw["duration_rule"] = t.string("duration_rule", d.duration_rule, choices=("fixed", "distance"))
     t.done()
+    longest = kw["duration"] if kw["duration_rule"] == "fixed" else kw["max_duration"]
+    if longest / kw["dt"] > LIMITS["steps_per_edge"]:
+        which = "duration" if kw["duration_rule"] == "fixed" else "max_duration"
+        raise ConfigError(
+            f"{t.path}.dt: {which} / dt = {longest:g} s / {kw['dt']:g} s exceeds "
+            f"{LIMITS['steps_per_edge']} RK4 steps per edge"
+        )
     try:
         return RoadmapOptions(**kw)
     except ValueError as exc:
@@ -396,7 +416,7 @@ def parse_energy_scenario(
         raise ConfigError(f"planner.hazard_penalty: must be ≥ 1 (inf removes edges), got {penalty}")
     planner_t.done()
     task = top.table("task", required=True)
-    ik_seed = task.integer("ik_seed", 0)
+    ik_seed = task.integer("ik_seed", 0, minimum=0, maximum=LIMITS["seed"] - 1)
     start = _endpoint(task, "start", arm, world, ik_seed)
     goal = _endpoint(task, "goal", arm, world, ik_seed + 1)
     task.done()

@@ -245,3 +245,53 @@ def test_per_joint_motor_errors(tmp_path, motor, line):
                   "--quiet")
     _assert_one_line_error(res, line)
     assert res.stderr.strip() == f"mpd-pin: error: {line}"
+
+
+@pytest.mark.parametrize(
+    "change, line",
+    [
+        (("num_nodes = 30", "num_nodes = 99999999999999999"),
+         "roadmap.num_nodes: must be ≤ 50000, got 99999999999999999"),
+        (("k = 6", "k = 1000000"), "roadmap.k: must be ≤ 100, got 1000000"),
+        (("k = 6", "k = 6\n    max_attempts = 10000000000"),
+         "roadmap.max_attempts: must be ≤ 100000, got 10000000000"),
+        (("k = 6", "k = 6\n    resolution = 1e-9"),
+         "roadmap.resolution: must be ≥ 0.001, got 1e-09"),
+        (("duration = 0.5", "duration = 1e9"), "roadmap.duration: must be ≤ 60, got 1e+09"),
+        (("dt = 0.01", "dt = 1e-7"),
+         "roadmap.dt: duration / dt = 0.5 s / 1e-07 s exceeds 100000 RK4 steps per edge"),
+        (("[task]", "[task]\n    ik_seed = -1"), "task.ik_seed: must be ≥ 0, got -1"),
+    ],
+)
+def test_absurd_sizes_are_refused(tmp_path, change, line):
+    res = run_cli("run", str(_write(tmp_path, GOOD.replace(*change))), "--out",
+                  str(tmp_path / "o"), "--quiet")
+    assert res.returncode == 2
+    assert res.stderr.strip() == f"mpd-pin: error: {line}"
+
+
+def _fail_with(exc):
+    def run(*args, **kwargs):
+        raise exc
+    return run
+
+
+@pytest.mark.parametrize(
+    "exc, code, line",
+    [
+        (MemoryError("Unable to allocate 7.3 PiB\nfor an array"), 1,
+         "mpd-pin: internal error: MemoryError: Unable to allocate 7.3 PiB for an array"),
+        (RuntimeError(), 1, "mpd-pin: internal error: RuntimeError: (no message)"),
+        (KeyboardInterrupt(), 130, "mpd-pin: interrupted"),
+    ],
+)
+def test_unexpected_exceptions_are_one_line(tmp_path, monkeypatch, capsys, exc, code, line):
+    import mpd_pin.runner
+    from mpd_pin.cli import main
+
+    monkeypatch.setattr(mpd_pin.runner, "run_energy_scenario", _fail_with(exc))
+    status = main(["run", str(_write(tmp_path, GOOD)), "--out", str(tmp_path / "o"), "--quiet"])
+    captured = capsys.readouterr()
+    assert status == code
+    assert captured.err == line + "\n"
+    assert captured.out == ""

@@ -158,6 +158,8 @@ pool; do not call one checker from several Python threads at once (use
 from __future__ import annotations
 
 import functools
+import hashlib
+import json
 import math
 import os
 from collections.abc import Sequence
@@ -892,6 +894,37 @@ class CollisionChecker:
             edge_mode=self.edge_mode,
             min_step=self.min_step,
         )
+
+    def describe(self) -> dict:
+        """Plain data fixing which configurations and edges are free (hashed into roadmap keys).
+
+        Arm fingerprint, the checked world (known obstacles and hazards, or all with
+        ``include_hidden``), self-collision pairs (geometry names), margin (m), hazard
+        clearance enforcement, edge mode, min_step (rad) and the query tolerances.
+        Threads and single-query backend do not change answers and are left out.
+        """
+        names = [go.name for go in self.geom_model.geometryObjects]
+        pairs = self.geom_model.collisionPairs
+        return {
+            "checker": "mpd_pin.CollisionChecker/1",
+            "arm": self.arm.fingerprint(),
+            "world": self.world.known(include_hidden=self._include_hidden).fingerprint(),
+            "include_hidden": self._include_hidden,
+            "self_pairs": sorted(
+                sorted((names[pairs[k].first], names[pairs[k].second])) for k in self.self_pairs
+            ),
+            "margin": self.margin,
+            "hazard_clearance": self._hazard_clearance,
+            "edge_mode": self.edge_mode,
+            "min_step": self.min_step,
+            "gjk_tolerance": GJK_TOLERANCE,
+            "certify_eps": CERTIFY_EPS,
+        }
+
+    def fingerprint(self) -> str:
+        """SHA-256 hex digest of :meth:`describe` (deterministic across processes)."""
+        text = json.dumps(self.describe(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
     # ---------------------------------------------------------------- input
     def _q(self, q: Any, what: str = "q") -> np.ndarray:

@@ -228,16 +228,18 @@ class Roadmap:
     @staticmethod
     def key_for(
         cost: EnergyCost,
-        world_fingerprint: str,
+        checker_fingerprint: str,
         options: RoadmapOptions,
         start: np.ndarray,
         goal: np.ndarray,
     ) -> str:
-        """SHA-256 over arm, motors, controller, dt, world, sampling options, start and goal."""
+        """SHA-256 over arm, motors, controller, dt, the collision checker's fingerprint
+        (world and settings, see ``CollisionChecker.describe``), sampling options,
+        start and goal."""
         payload = {
             "format": ROADMAP_FORMAT,
             "cost": cost.describe(),
-            "world": world_fingerprint,
+            "checker": checker_fingerprint,
             "options": asdict(options),
             "start": np.asarray(start, float).tolist(),
             "goal": np.asarray(goal, float).tolist(),
@@ -317,7 +319,7 @@ class Roadmap:
         if expected_key is not None and key != expected_key:
             raise ValueError(
                 f"roadmap file {str(path)!r} was built with other parameters (arm, motors, "
-                "controller, world, sampling, start or goal differ); rebuild it"
+                "controller, world, collision settings, sampling, start or goal differ); rebuild it"
             )
         return cls(
             nodes=arrays["nodes"],
@@ -372,14 +374,16 @@ def build_roadmap(
     goal,
     options: RoadmapOptions | None = None,
     *,
-    world_fingerprint: str | None = None,
+    checker_fingerprint: str | None = None,
     cache: str | os.PathLike | None = None,
     show_progress: bool = True,
 ) -> Roadmap:
     """Sample, connect, check and cost a roadmap; start is node 0, goal node 1.
 
     ``checker`` is a validity checker (``is_free``, ``is_free_batch``,
-    ``edges_free``) for the known world. With ``cache`` (a ``.npz`` path), a file
+    ``edges_free``, ``fingerprint``) for the known world. ``checker_fingerprint``
+    overrides ``checker.fingerprint()`` in the key (it must change whenever the
+    free configurations or edges do). With ``cache`` (a ``.npz`` path), a file
     built with the same key is loaded instead of rebuilding; a file with another
     key or a bad checksum raises ValueError (delete it to rebuild).
     """
@@ -392,12 +396,18 @@ def build_roadmap(
 
     options = options or RoadmapOptions()
     arm = cost.drive.arm
-    if world_fingerprint is None:
-        # Only what the planner knows shapes the roadmap: hidden obstacles do not.
-        world_fingerprint = checker.world.known().fingerprint() if hasattr(checker, "world") else ""
+    if checker_fingerprint is None:
+        if not callable(getattr(checker, "fingerprint", None)):
+            raise ValueError(
+                f"checker {type(checker).__name__} has no fingerprint(); pass "
+                "checker_fingerprint= (a string that changes whenever its free space does)"
+            )
+        # The world as the checker sees it (known obstacles, or all with include_hidden)
+        # and every setting that changes which configurations and edges are free.
+        checker_fingerprint = checker.fingerprint()
     start = _check_endpoint(arm, checker, start, "start")
     goal = _check_endpoint(arm, checker, goal, "goal")
-    key = Roadmap.key_for(cost, world_fingerprint, options, start, goal)
+    key = Roadmap.key_for(cost, checker_fingerprint, options, start, goal)
     if cache is not None and Path(cache).exists():
         return Roadmap.load(cache, expected_key=key)
 

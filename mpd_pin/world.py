@@ -661,13 +661,19 @@ class World:
             self.revealed = frozenset()
             self.version += 1
 
-    def known(self) -> World:
-        """A new world with only the known obstacles and hazards (all marked not hidden)."""
-        obs = [replace(o, hidden=False) for o in self.obstacles if self.is_known(o.name)]
+    def known(self, include_hidden: bool = False) -> World:
+        """A new world with only the known obstacles and hazards (all marked not hidden).
+
+        With ``include_hidden``: every obstacle and hazard, all marked not hidden.
+        """
+        def seen(name: str) -> bool:
+            return include_hidden or self.is_known(name)
+
+        obs = [replace(o, hidden=False) for o in self.obstacles if seen(o.name)]
         haz = [
             Hazard(replace(h.shape, hidden=False), h.clearance)
             for h in self.hazards
-            if self.is_known(h.name)
+            if seen(h.name)
         ]
         return World(tuple(obs), tuple(haz))
 

@@ -119,7 +119,7 @@ def test_same_seed_same_roadmap_other_seed_differs(setup):
         np.testing.assert_array_equal(getattr(again, name), getattr(rm, name))
     assert again.key == rm.key
     other = RoadmapOptions(**{**OPTIONS.__dict__, "seed": 4, "num_nodes": 5})
-    assert Roadmap.key_for(cost, world.known().fingerprint(), other, START, GOAL) != rm.key
+    assert Roadmap.key_for(cost, checker.fingerprint(), other, START, GOAL) != rm.key
 
 
 def test_save_load_and_refusals(setup, tmp_path):
@@ -153,6 +153,65 @@ def test_save_load_and_refusals(setup, tmp_path):
     (tmp_path / "junk.npz").write_bytes(b"not a zip")
     with pytest.raises(ValueError, match="cannot read"):
         Roadmap.load(tmp_path / "junk.npz")
+
+
+def test_key_covers_checker_settings(setup, tmp_path):
+    """Every checker setting that changes the free space changes the key; loading refuses."""
+    arm, drive, world, checker, cost, rm = setup
+    from mpd_pin.world import Hazard, Polygon, Sphere
+
+    hot = Hazard(Polygon.planar([(-1.1, 0.9), (-0.8, 0.9), (-0.95, 1.1)], name="hot"), 0.05)
+    late = Sphere.planar((1.0, -0.9), 0.1, name="late", hidden=True)
+
+    def scene():
+        return World((*world.obstacles, late), (hot,))
+
+    opts = RoadmapOptions(num_nodes=8, k=3, seed=1, duration=0.5, dt=0.01)
+    base = CollisionChecker(arm, scene())
+    path = build_roadmap(cost, base, START, GOAL, opts, cache=tmp_path / "rm.npz",
+                         show_progress=False)
+    assert path.key == Roadmap.key_for(cost, base.fingerprint(), opts, START, GOAL)
+    # Deterministic, and blind to what does not change answers.
+    same = [CollisionChecker(arm, scene()), CollisionChecker(arm, scene(), num_threads=1),
+            CollisionChecker(arm, scene(), single_backend="broadphase"),
+            CollisionChecker(arm, scene(), self_collision=True)]
+    assert {c.fingerprint() for c in same} == {base.fingerprint()}
+    assert len(base.fingerprint()) == 64
+    revealed = CollisionChecker(arm, scene())
+    revealed.reveal("late")
+    variants = {
+        "margin": CollisionChecker(arm, scene(), margin=0.001),
+        "hazard_clearance": CollisionChecker(arm, scene(), hazard_clearance=True),
+        "self_collision": CollisionChecker(arm, scene(), self_collision=False),
+        "edge_mode": CollisionChecker(arm, scene(), edge_mode="discrete"),
+        "min_step": CollisionChecker(arm, scene(), min_step=1e-5),
+        "include_hidden": CollisionChecker(arm, scene(), include_hidden=True),
+        "revealed": revealed,
+        "world": CollisionChecker(arm, world),
+    }
+    assert base.describe()["self_pairs"] == [["link1_0", "link3_0"]]
+    assert variants["self_collision"].describe()["self_pairs"] == []
+    keys = {n: Roadmap.key_for(cost, c.fingerprint(), opts, START, GOAL)
+            for n, c in variants.items()}
+    assert len(set(keys.values()) | {path.key}) == len(variants) + 1, keys
+    for name, c in variants.items():
+        with pytest.raises(ValueError, match="other parameters"):
+            build_roadmap(cost, c, START, GOAL, opts, cache=tmp_path / "rm.npz",
+                          show_progress=False)
+        assert c.fingerprint() != base.fingerprint(), name
+    # A checker that cannot describe itself needs an explicit fingerprint.
+
+    class Bare:
+        arm = checker.arm
+        is_free = staticmethod(checker.is_free)
+        is_free_batch = staticmethod(checker.is_free_batch)
+        edges_free = staticmethod(checker.edges_free)
+
+    with pytest.raises(ValueError, match="no fingerprint"):
+        build_roadmap(cost, Bare(), START, GOAL, opts, show_progress=False)
+    bare = build_roadmap(cost, Bare(), START, GOAL, opts, checker_fingerprint="mine",
+                         show_progress=False)
+    assert bare.key == Roadmap.key_for(cost, "mine", opts, START, GOAL)
 
 
 def test_path_energy_is_sum_of_edges(setup):
@@ -215,7 +274,8 @@ def test_sampling_gives_up_clearly():
     class Wrapper:
         """Endpoints valid in an empty world, samples checked in the blocked one."""
 
-        world = World()
+        arm = checker.arm
+        fingerprint = staticmethod(checker.fingerprint)
         is_free = staticmethod(checker.is_free)
         is_free_batch = staticmethod(blocked.is_free_batch)
         edges_free = staticmethod(blocked.edges_free)

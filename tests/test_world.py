@@ -135,6 +135,11 @@ def test_reveal_known_and_version():
     known = w.known()
     assert "late" in known and not known["late"].hidden
     w.reset()
+    # include_hidden: everything, all marked known; same content as the revealed world
+    everything = w.known(include_hidden=True)
+    assert everything.names == w.names and everything.hidden_names() == []
+    assert everything.fingerprint() == known.fingerprint() != w.known().fingerprint()
+    assert w.hidden_names() == ["late"]  # the world itself is unchanged
     assert w.hidden_names() == ["late"] and w.version == v + 2
     with pytest.raises(ValueError, match="no obstacle named"):
         w.reveal("nope")

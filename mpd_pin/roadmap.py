@@ -267,7 +267,7 @@ class Roadmap:
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write a ``.npz`` (no pickle) holding the arrays, the key and a checksum."""
-        path = Path(path)
+        path = npz_path(path)
         arrays = self._arrays()
         np.savez_compressed(
             path,
@@ -276,21 +276,34 @@ class Roadmap:
             format=np.array(ROADMAP_FORMAT),
             **arrays,
         )
-        return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
+        return path
 
     @classmethod
-    def load(cls, path: str | os.PathLike, expected_key: str | None = None) -> Roadmap:
-        """Read a roadmap saved by :meth:`save`.
+    def load(
+        cls, path: str | os.PathLike, expected_key: str | None = None, *, nq: int | None = None
+    ) -> Roadmap:
+        """Read a roadmap saved by :meth:`save` (``.npz`` appended to ``path`` as by save).
 
-        Raises ValueError if the file is not a roadmap, was modified after it was
-        written (checksum), or was built for other parameters (``expected_key``).
+        Raises ValueError if the file cannot be read (missing, truncated, corrupt),
+        is not a roadmap, was modified after it was written (checksum), holds
+        inconsistent arrays (shapes, node ids, non-finite or negative values,
+        configurations of other than ``nq`` joints), or was built for other
+        parameters (``expected_key``).
         """
         path = Path(path)
+        if not path.is_file():
+            path = npz_path(path)
         try:
-            with np.load(path, allow_pickle=False) as f:
+            f = np.load(path, allow_pickle=False)
+            if not isinstance(f, np.lib.npyio.NpzFile):  # a plain .npy array
+                raise ValueError("not an .npz archive")
+            with f:
                 data = {name: f[name] for name in f.files}
-        except (OSError, ValueError) as exc:
-            raise ValueError(f"cannot read roadmap file {str(path)!r}: {exc}") from None
+        except Exception as exc:  # BadZipFile, zlib.error, EOFError, OSError, ... on bad bytes
+            raise ValueError(
+                f"cannot read roadmap file {str(path)!r} ({type(exc).__name__}: {exc}); "
+                "delete it to rebuild"
+            ) from None
         needed = {
             "key",
             "checksum",
@@ -316,6 +329,7 @@ class Roadmap:
             raise ValueError(
                 f"roadmap file {str(path)!r} was modified after it was written (checksum mismatch)"
             )
+        _validate_arrays(arrays, path, nq)
         if expected_key is not None and key != expected_key:
             raise ValueError(
                 f"roadmap file {str(path)!r} was built with other parameters (arm, motors, "
@@ -331,6 +345,47 @@ class Roadmap:
             energy=arrays["energy"],
             key=key,
         )
+
+
+def npz_path(path: str | os.PathLike) -> Path:
+    """``path`` with ``.npz`` appended unless it already ends so (as ``np.savez`` does)."""
+    path = Path(path)
+    return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
+
+
+def _validate_arrays(arrays: dict[str, np.ndarray], path: Path, nq: int | None) -> None:
+    """ValueError unless the loaded arrays form a consistent roadmap of ``nq``-joint nodes."""
+
+    def bad(msg: str) -> ValueError:
+        return ValueError(f"roadmap file {str(path)!r} is inconsistent: {msg}")
+
+    nodes, ends = arrays["nodes"], arrays["endpoints"]
+    src, dst = arrays["src"], arrays["dst"]
+    durations, energy = arrays["durations"], arrays["energy"]
+    if nodes.ndim != 2 or nodes.dtype.kind != "f" or nodes.shape[0] < 2:
+        raise bad(f"nodes must be a float (n >= 2, nq) array, got {nodes.dtype} {nodes.shape}")
+    n, dim = nodes.shape
+    if nq is not None and dim != nq:
+        raise bad(f"nodes have {dim} joint values, the arm has {nq}")
+    if not np.all(np.isfinite(nodes)):
+        raise bad("nodes contain NaN or infinity")
+    for name, a, shape in (("endpoints", ends, (2,)), ("src", src, None), ("dst", dst, None)):
+        if a.dtype.kind not in "iu" or a.ndim != 1 or (shape is not None and a.shape != shape):
+            raise bad(f"{name} must be a 1-D integer array, got {a.dtype} {a.shape}")
+        if a.size and (a.min() < 0 or a.max() >= n):
+            raise bad(f"{name} has node ids outside [0, {n})")
+    E = src.shape[0]
+    if dst.shape != (E,) or durations.shape != (E,) or energy.shape != (E, dim):
+        raise bad(
+            f"{E} edges but dst {dst.shape}, durations {durations.shape}, energy {energy.shape}"
+            f" (expected ({E},), ({E},), ({E}, {dim}))"
+        )
+    if E and np.any(src == dst):
+        raise bad("self-loop edges")
+    if durations.dtype.kind != "f" or not np.all(np.isfinite(durations) & (durations > 0)):
+        raise bad("durations must be finite and > 0 (s)")
+    if energy.dtype.kind != "f" or not np.all(np.isfinite(energy) & (energy >= 0)):
+        raise bad("energies must be finite and >= 0 (J)")
 
 
 # --------------------------------------------------------------------------- building
@@ -408,8 +463,10 @@ def build_roadmap(
     start = _check_endpoint(arm, checker, start, "start")
     goal = _check_endpoint(arm, checker, goal, "goal")
     key = Roadmap.key_for(cost, checker_fingerprint, options, start, goal)
-    if cache is not None and Path(cache).exists():
-        return Roadmap.load(cache, expected_key=key)
+    if cache is not None:
+        cache = npz_path(cache)
+        if cache.exists():
+            return Roadmap.load(cache, expected_key=key, nq=arm.nq)
 
     timings: dict[str, float] = {}
     rng = np.random.default_rng(options.seed)

@@ -1,5 +1,6 @@
 """Roadmap: sampling, connections, edge checks, directed energy costs, files (DESIGN §4)."""
 
+import hashlib
 import math
 
 import numpy as np
@@ -212,6 +213,111 @@ def test_key_covers_checker_settings(setup, tmp_path):
     bare = build_roadmap(cost, Bare(), START, GOAL, opts, checker_fingerprint="mine",
                          show_progress=False)
     assert bare.key == Roadmap.key_for(cost, "mine", opts, START, GOAL)
+
+
+def test_cache_path_without_npz_suffix(setup, tmp_path):
+    arm, drive, world, checker, cost, rm = setup
+    saved = rm.save(tmp_path / "a")
+    assert saved == tmp_path / "a.npz" and saved.is_file() and not (tmp_path / "a").exists()
+    for path in (tmp_path / "a", str(tmp_path / "a"), tmp_path / "a.npz"):
+        hit = build_roadmap(cost, checker, START, GOAL, OPTIONS, cache=path, show_progress=False)
+        assert hit.timings == {}  # loaded, not built
+        np.testing.assert_array_equal(hit.energy, rm.energy)
+        np.testing.assert_array_equal(Roadmap.load(path, expected_key=rm.key).nodes, rm.nodes)
+    built = build_roadmap(cost, checker, START, GOAL, OPTIONS, cache=tmp_path / "b",
+                          show_progress=False)
+    assert built.timings and (tmp_path / "b.npz").is_file() and not (tmp_path / "b").exists()
+    again = build_roadmap(cost, checker, START, GOAL, OPTIONS, cache=tmp_path / "b",
+                          show_progress=False)
+    assert again.timings == {}
+    np.testing.assert_array_equal(again.src, built.src)
+
+
+def test_corrupt_file_is_refused_clearly(setup, tmp_path):
+    arm, drive, world, checker, cost, rm = setup
+    good = rm.save(tmp_path / "good.npz").read_bytes()
+    cases = {
+        "trunc.npz": good[: len(good) // 2],
+        "tail.npz": good[:-30],
+        "empty.npz": b"",
+        # one byte of the compressed data flipped (zlib or CRC error)
+        "flip.npz": good[:400] + bytes([good[400] ^ 0xFF]) + good[401:],
+    }
+    for name, data in cases.items():
+        (tmp_path / name).write_bytes(data)
+        with pytest.raises(ValueError, match=f"cannot read roadmap file .*{name}"):
+            Roadmap.load(tmp_path / name)
+        with pytest.raises(ValueError, match=f"cannot read roadmap file .*{name}"):
+            build_roadmap(cost, checker, START, GOAL, OPTIONS, cache=tmp_path / name,
+                          show_progress=False)
+    np.save(tmp_path / "plain.npy", np.zeros(3))
+    with pytest.raises(ValueError, match="not an .npz archive"):
+        Roadmap.load(tmp_path / "plain.npy")
+    with pytest.raises(ValueError, match="cannot read roadmap file .*missing.npz"):
+        Roadmap.load(tmp_path / "missing")
+
+
+def _resave_with_valid_checksum(path, data):
+    """Write ``data`` (the .npz fields) with a checksum recomputed as the format defines it:
+    SHA-256 of the key, then of each array (sorted by name) as "name:dtype:shape" + bytes."""
+    names = ("nodes", "endpoints", "src", "dst", "durations", "energy")
+    h = hashlib.sha256(str(data["key"]).encode())
+    for name in sorted(names):
+        a = np.ascontiguousarray(data[name])
+        h.update(f"{name}:{a.dtype.str}:{a.shape}".encode())
+        h.update(a.tobytes())
+    np.savez(path, **{**data, "checksum": np.array(h.hexdigest())})
+    return path
+
+
+CRAFTED = {
+    "src id too large": (lambda d, n: {"src": np.r_[n, d["src"][1:]]}, "node ids outside"),
+    "negative dst id": (lambda d, n: {"dst": np.r_[d["dst"][:3], -1, d["dst"][4:]]},
+                        "node ids outside"),
+    "goal id too large": (lambda d, n: {"endpoints": np.array([0, n + 3])}, "node ids outside"),
+    "three endpoints": (lambda d, n: {"endpoints": np.array([0, 1, 2])}, "endpoints"),
+    "float edge ids": (lambda d, n: {"src": d["src"].astype(float)}, "integer"),
+    "negative energy": (lambda d, n: {"energy": d["energy"] * np.r_[-1, np.ones(2)]},
+                        "energies must be finite and >= 0"),
+    "nan energy": (lambda d, n: {"energy": np.where(d["energy"] > 0, np.nan, 0.0)},
+                   "energies must be finite"),
+    "zero duration": (lambda d, n: {"durations": d["durations"] * 0}, "durations"),
+    "short durations": (lambda d, n: {"durations": d["durations"][:-1]}, "edges but"),
+    "energy of 2 joints": (lambda d, n: {"energy": d["energy"][:, :2]}, "edges but"),
+    "infinite node": (lambda d, n: {"nodes": d["nodes"] * np.inf}, "NaN or infinity"),
+    "flat nodes": (lambda d, n: {"nodes": d["nodes"].ravel()}, "nodes must be"),
+    "self loop": (lambda d, n: {"dst": d["src"].copy()}, "self-loop"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CRAFTED))
+def test_crafted_file_with_valid_checksum_is_refused(setup, tmp_path, case):
+    arm, drive, world, checker, cost, rm = setup
+    with np.load(rm.save(tmp_path / "rm.npz")) as f:
+        data = {k: f[k] for k in f.files}
+    # the recomputed checksum is the real one: unchanged contents load
+    ok = _resave_with_valid_checksum(tmp_path / "same.npz", data)
+    np.testing.assert_array_equal(Roadmap.load(ok, expected_key=rm.key, nq=3).energy, rm.energy)
+    change, match = CRAFTED[case]
+    path = _resave_with_valid_checksum(tmp_path / "bad.npz", {**data, **change(data, rm.num_nodes)})
+    with pytest.raises(ValueError, match=f"bad.npz' is inconsistent: .*{match}"):
+        Roadmap.load(path, expected_key=rm.key)
+    with pytest.raises(ValueError, match="is inconsistent"):
+        build_roadmap(cost, checker, START, GOAL, OPTIONS, cache=path, show_progress=False)
+
+
+def test_configurations_of_other_arm_are_refused(setup, tmp_path):
+    """A consistent 2-joint roadmap under the 3-link arm's key: loads alone, refused for nq=3."""
+    arm, drive, world, checker, cost, rm = setup
+    with np.load(rm.save(tmp_path / "rm.npz")) as f:
+        data = {k: f[k] for k in f.files}
+    two = {**data, "nodes": data["nodes"][:, :2], "energy": data["energy"][:, :2]}
+    path = _resave_with_valid_checksum(tmp_path / "two.npz", two)
+    assert Roadmap.load(path).nodes.shape == (rm.num_nodes, 2)
+    with pytest.raises(ValueError, match="nodes have 2 joint values, the arm has 3"):
+        Roadmap.load(path, nq=3)
+    with pytest.raises(ValueError, match="nodes have 2 joint values, the arm has 3"):
+        build_roadmap(cost, checker, START, GOAL, OPTIONS, cache=path, show_progress=False)
 
 
 def test_path_energy_is_sum_of_edges(setup):

@@ -1000,19 +1000,27 @@ class CollisionChecker:
                 )
         return out
 
-    def clearance(self, q: Any) -> float:
-        """Signed minimum distance (m) from the arm to the known obstacles (negative: penetration).
+    def clearance(self, q: Any, *, hazards: bool = True) -> float:
+        """Signed minimum distance (m) from the arm to the known obstacles and hazards.
 
-        Self-collision and hazards are not included; +inf with no obstacles.
-        For mesh geometry Coal reports penetrations as distances ≤ 0, not depths.
+        Negative: penetration; +inf if there is nothing to measure to. Hazards count
+        by their raw geometry (their clearance threshold is not subtracted: see
+        :meth:`hazard_margin`); ``hazards=False`` measures to obstacles only.
+        Self-collision is not included. For mesh geometry Coal reports penetrations
+        as distances ≤ 0, not depths.
         """
         q = self._q(q)
         self._sync()
-        if not self._dist_idx:
-            return math.inf
-        pin.computeDistances(self.model, self.data, self.geom_model, self._dist_data, q)
-        res = self._dist_data.distanceResults
-        return float(min(res[k].min_distance for k in self._dist_idx))
+        best = math.inf
+        if self._dist_idx:
+            pin.computeDistances(self.model, self.data, self.geom_model, self._dist_data, q)
+            res = self._dist_data.distanceResults
+            best = min(res[k].min_distance for k in self._dist_idx)
+        if hazards and self._haz_idx:
+            pin.computeDistances(self.model, self.data, self.geom_model, self._hazard_data, q)
+            res = self._hazard_data.distanceResults
+            best = min(best, min(res[k].min_distance for k in self._haz_idx))
+        return float(best)
 
     def hazard_margin(self, q: Any) -> float:
         """min over known hazards of (distance to the hazard − its clearance) (m); +inf if none.

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
-from planar_geometry import brute_force, scene_2d
+from planar_geometry import brute_force, min_signed_distance, scene_2d
 
 import mpd_pin as mp
 from mpd_pin.collision import CollisionChecker, edge_configurations
@@ -128,23 +128,43 @@ def test_near_contact_tolerance():
 
 @pytest.mark.parametrize("name", ["planar_3link", "planar_4link"])
 def test_clearance_matches_brute_force(name):
+    """clearance(q): min signed distance to obstacles and hazards (raw geometry), against
+    the exact 2-D geometry; ``hazards=False``: obstacles only."""
     spec = SPEC[name]
     arm = mp.builtin_arm(name)
-    world = scene(len(spec.lengths))
+    pit = Hazard(Cylinder.planar((0.0, -0.95), 0.15, name="pit"), 0.05)
+    world = World([*scene(len(spec.lengths)), HAZARD, pit])
     checker = CollisionChecker(arm, world)
     rng = np.random.default_rng(5)
     Q = rng.uniform(arm.lower_limits, arm.upper_limits, size=(1500, arm.nq))
     got = np.array([checker.clearance(q) for q in Q])
-    discs, polys = scene_2d(world)
-    ref, _ = brute_force(Q, spec.lengths, spec.radius, discs, polys, False)
-    pos = ref > 0
-    assert pos.sum() > 300
-    np.testing.assert_allclose(got[pos], ref[pos], atol=1e-6, rtol=0)
-    # penetrating: negative as well (EPA depth close to the 2-D depth for shallow contact)
-    assert np.all(got[ref < -1e-6] < 0)
+    obs_only = np.array([checker.clearance(q, hazards=False) for q in Q])
+    ref = min_signed_distance(Q, spec.lengths, spec.radius, world, self_collision=False)
+    ref_obs = min_signed_distance(Q, spec.lengths, spec.radius, world, hazards=False,
+                                  self_collision=False)
+    ref_haz = min_signed_distance(Q, spec.lengths, spec.radius, World([HAZARD, pit]),
+                                  self_collision=False)
+    for g, r in ((got, ref), (obs_only, ref_obs)):
+        pos = r > 0
+        assert pos.sum() > 300
+        np.testing.assert_allclose(g[pos], r[pos], atol=1e-6, rtol=0)
+        # penetrating: negative as well (EPA depth close to the 2-D depth for shallow contact)
+        assert np.all(g[r < -1e-6] < 0)
+    # the hazard decides the clearance of a good share of configurations
+    hazard_nearest = (ref_haz < ref_obs - 1e-3) & (ref > 0)
+    assert hazard_nearest.sum() > 30
+    assert np.all(got[hazard_nearest] < obs_only[hazard_nearest] - 1e-3)
     per = checker.distances(Q[0])
     assert set(per) == set(world.names)
     assert min(per.values()) == pytest.approx(got[0], abs=1e-8)
+    # hazard_margin = distance to the hazard − its clearance
+    i = int(np.flatnonzero(ref_haz > 0)[0])
+    margin = min(
+        min_signed_distance(Q[i], spec.lengths, spec.radius, World([h]), self_collision=False)[0]
+        - h.clearance
+        for h in (HAZARD, pit)
+    )
+    assert checker.hazard_margin(Q[i]) == pytest.approx(margin, abs=1e-6)
 
 
 def test_batch_equals_loop_and_hidden_obstacles():
@@ -473,7 +493,16 @@ def test_hazards():
     q_far = np.array([math.pi / 2, 0.0, 0.0])  # arm straight up: far from the zone
     q_in = np.array([-0.25, 0.0, 0.0])  # tip (1.163, -0.297) inside the triangle
     assert checker.is_free(q_far) and not checker.is_free(q_in)
-    assert math.isinf(checker.clearance(q_far))  # hazards are not obstacles for clearance
+    # clearance measures to the hazard's geometry; obstacles only: none here
+    assert math.isinf(checker.clearance(q_far, hazards=False))
+    spec = SPEC["planar_3link"]
+    Q3 = np.array([q_far, q_in, np.zeros(3)])
+    ref = min_signed_distance(Q3, spec.lengths, spec.radius, World([zone]), self_collision=False)
+    assert ref[0] > 0.5 and ref[1] < 0 and ref[2] == pytest.approx(0.07, abs=1e-12)
+    assert checker.clearance(q_far) == pytest.approx(ref[0], abs=1e-6)
+    assert checker.clearance(q_far) == pytest.approx(checker.distances(q_far)["hot"], abs=1e-12)
+    assert checker.clearance(q_in) < 0
+    assert checker.hazard_margin(q_far) == pytest.approx(ref[0] - 0.1, abs=1e-6)
     # at q = 0 the arm (along x, radius 0.03) passes 0.07 m above the apex (1.1, -0.1)
     q0 = np.zeros(3)
     d = checker.distances(q0)["hot"]

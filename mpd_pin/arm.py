@@ -74,6 +74,28 @@ def _validate_urdf(xml: str, where: str) -> None:
         raise ValueError(f"URDF in {where} has no movable joint (revolute or prismatic)")
 
 
+def _check_srdf_links(srdf_path: str, model: pin.Model) -> None:
+    """ValueError if the SRDF is malformed or disables pairs of links the model lacks
+    (Pinocchio would silently keep those pairs)."""
+    from lxml import etree
+
+    try:
+        root = etree.parse(srdf_path).getroot()
+    except (OSError, etree.XMLSyntaxError) as exc:
+        raise ValueError(f"malformed SRDF {srdf_path!r}: {exc}") from None
+    unknown = sorted(
+        {
+            name
+            for el in root.iter("disable_collisions")
+            for name in (el.get("link1"), el.get("link2"))
+            if name is None or not model.existBodyName(name)
+        },
+        key=str,
+    )
+    if unknown:
+        raise ValueError(f"SRDF {srdf_path!r} names links the URDF does not have: {unknown}")
+
+
 @dataclass(eq=False)
 class Arm:
     """A fixed-base arm: Pinocchio model, collision and visual geometry, joint limits.
@@ -116,13 +138,16 @@ class Arm:
         path_or_xml: str | os.PathLike,
         *,
         package_dirs: Sequence[str] | None = None,
-        srdf_path: str | None = None,
+        srdf_path: str | os.PathLike | None = None,
         name: str | None = None,
     ) -> Arm:
         """Load an arm from a URDF file path or an XML string.
 
-        ``package_dirs`` are searched for ``package://`` meshes; ``srdf_path``, if
-        given, lists the self-collision pairs to disable.
+        ``package_dirs`` are searched for ``package://`` meshes. With ``srdf_path``
+        the collision model gets every pair of its geometries, minus the SRDF's
+        ``disable_collisions`` pairs (list adjacent links there too, as MoveIt SRDFs
+        do); the checker then uses exactly these self-collision pairs. Without it
+        there are no pairs and the checker uses non-adjacent links.
         """
         xml, path = _read_urdf_text(path_or_xml)
         where = str(path) if path is not None else "the URDF string"
@@ -138,6 +163,16 @@ class Arm:
             visual = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.VISUAL, None, dirs)
         except (RuntimeError, ValueError) as exc:
             raise ValueError(f"Pinocchio could not load {where}: {exc}") from None
+        if srdf_path is not None:
+            srdf_path = str(srdf_path)
+            if not Path(srdf_path).is_file():
+                raise ValueError(f"SRDF file not found: {srdf_path!r}")
+            _check_srdf_links(srdf_path, model)
+            collision.addAllCollisionPairs()
+            try:
+                pin.removeCollisionPairs(model, collision, srdf_path)
+            except (RuntimeError, ValueError) as exc:
+                raise ValueError(f"Pinocchio could not read SRDF {srdf_path!r}: {exc}") from None
         return cls(
             model=model,
             collision_model=collision,

@@ -110,6 +110,70 @@ def test_urdf_from_file_path(tmp_path):
     assert arm.gravity(np.zeros(1))[0] == pytest.approx(9.81 * 0.5, rel=1e-12)
 
 
+SRDF = """<?xml version="1.0"?>
+<robot name="planar_arm">
+  <disable_collisions link1="base_link" link2="link1" reason="Adjacent"/>
+  <disable_collisions link1="link1" link2="link2" reason="Adjacent"/>
+  <disable_collisions link1="link2" link2="link3" reason="Adjacent"/>
+  <disable_collisions link1="link3" link2="link4" reason="Adjacent"/>
+  <disable_collisions link1="link1" link2="link3" reason="Never"/>
+</robot>
+"""
+
+
+def test_srdf_removes_disabled_pairs(tmp_path):
+    """All pairs minus the SRDF's: (link1, link3) disabled leaves (1, 4) and (2, 4); the
+    checker then ignores link 1 × link 3 overlaps (exact 2-D geometry decides which)."""
+    from planar_geometry import link_rectangles, sd_polygons
+
+    from mpd_pin.collision import CollisionChecker
+
+    lengths, radius = [0.5, 0.4, 0.35, 0.3], 0.03
+    urdf = tmp_path / "arm4.urdf"
+    urdf.write_text(mp.planar_arm_urdf(lengths, [1.0] * 4, radius=radius))
+    srdf = tmp_path / "arm4.srdf"
+    srdf.write_text(SRDF)
+    arm = mp.Arm.from_urdf(urdf, srdf_path=srdf)
+    plain = mp.Arm.from_urdf(urdf)
+    names = [g.name for g in arm.collision_model.geometryObjects]
+    pairs = {(names[p.first], names[p.second]) for p in arm.collision_model.collisionPairs}
+    assert pairs == {("link1_0", "link4_0"), ("link2_0", "link4_0")}
+    assert arm.srdf_path == str(srdf) and len(plain.collision_model.collisionPairs) == 0
+    assert arm.fingerprint() != plain.fingerprint()
+    with_srdf = CollisionChecker(arm)
+    default = CollisionChecker(plain)  # non-adjacent links: (1, 3), (1, 4), (2, 4)
+    assert len(with_srdf.self_pairs) == 2 and len(default.self_pairs) == 3
+    rng = np.random.default_rng(12)
+    Q = rng.uniform(arm.lower_limits, arm.upper_limits, size=(6000, 4))
+    corners = link_rectangles(Q, lengths, radius)[0]
+    d = {(i, j): sd_polygons(corners[:, i], corners[:, j]) for i, j in [(0, 2), (0, 3), (1, 3)]}
+    kept = np.minimum(d[0, 3], d[1, 3])
+    every = np.minimum(kept, d[0, 2])
+    only_13 = (d[0, 2] < -1e-3) & (kept > 1e-3)
+    assert only_13.sum() > 100
+    for checker, ref in ((with_srdf, kept), (default, every)):
+        free = checker.is_free_batch(Q)
+        assert not np.any((free != (ref > 0)) & (np.abs(ref) >= 1e-6))
+    assert with_srdf.is_free_batch(Q[only_13]).all() and not default.is_free_batch(Q[only_13]).any()
+
+
+@pytest.mark.parametrize(
+    "srdf, match",
+    [
+        (None, "SRDF file not found"),
+        ("<robot name='x'><disable_collisions link1='link1'", "malformed SRDF"),
+        ("<robot name='x'><disable_collisions link1='link1' link2='link9'/></robot>",
+         r"links the URDF does not have: \['link9'\]"),
+    ],
+)
+def test_bad_srdf(tmp_path, srdf, match):
+    path = tmp_path / "a.srdf"
+    if srdf is not None:
+        path.write_text(srdf)
+    with pytest.raises(ValueError, match=match):
+        mp.Arm.from_urdf(mp.planar_arm_urdf([0.5, 0.4], [1.0, 1.0]), srdf_path=path)
+
+
 @pytest.mark.parametrize(
     "text, match",
     [

@@ -21,6 +21,7 @@ from .world import Hazard, World
 __all__ = [
     "draw_world_xz",
     "arm_points",
+    "ee_trace",
     "is_planar_xz",
     "plot_arm_path",
     "plot_joint_angles",
@@ -95,8 +96,9 @@ def is_planar_xz(arm: Arm) -> bool:
     return bool(origins_in_plane and np.allclose(J[[1, 3, 5], :], 0.0, atol=1e-9))
 
 
-def _ee_trace(arm: Arm, Q: np.ndarray) -> np.ndarray:
-    return np.array([arm_points(arm, q)[-1] for q in Q])
+def ee_trace(arm: Arm, Q: np.ndarray) -> np.ndarray:
+    """(len(Q), 3) end-effector positions (m): the last point of :func:`arm_points`."""
+    return np.array([arm_points(arm, q)[-1] for q in np.asarray(Q, float)])
 
 
 def plot_arm_path(
@@ -118,7 +120,7 @@ def plot_arm_path(
 
     Q_nodes = np.asarray(Q_nodes, float)
     planar = is_planar_xz(arm)
-    trace = _ee_trace(arm, Q_motion if Q_motion is not None else Q_nodes)
+    trace = ee_trace(arm, Q_motion if Q_motion is not None else Q_nodes)
     if planar:
         fig, ax = plt.subplots(figsize=(7, 6))
         draw_world_xz(ax, world)
@@ -130,7 +132,7 @@ def plot_arm_path(
         for (name, Qo), col in zip(
             (other_paths or {}).items(), ["#81b29a", "#f2cc8f", "#3d405b"], strict=False
         ):
-            tr = _ee_trace(arm, np.asarray(Qo, float))
+            tr = ee_trace(arm, np.asarray(Qo, float))
             ax.plot(tr[:, 0], tr[:, 2], "--", color=col, lw=1.5, label=name)
             for q in np.asarray(Qo, float):
                 p = arm_points(arm, q)

@@ -3,8 +3,9 @@
 :func:`run_energy_scenario` writes into ``out_dir``:
 
 * ``result.json`` — energies per joint and total (J), the path (node ids and
-  configurations), roadmap size, time per phase (wall-clock s) and total CPU
-  time (s), replans, hazard
+  configurations), roadmap size, time per phase — wall-clock seconds
+  (``seconds_per_phase``) and CPU seconds of this process, all its threads
+  (``cpu_seconds_per_phase``, :func:`time.process_time`) — replans, hazard
   re-planning, and a verification of the path energy by :func:`simulate_edge`;
 * ``path.png``, ``joint_angles.png``, ``energy.png`` (paper Figs. 12–17);
 * ``replay.html`` — a self-contained meshcat recording of the motion.
@@ -15,20 +16,29 @@ from __future__ import annotations
 import json
 import math
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .collision import CollisionChecker
+from .collision import CollisionChecker, edge_configurations
 from .energy import simulate_edge
 from .execution import execute, plan_avoiding_hazards
 from .roadmap import EnergyCost, Roadmap, build_roadmap
 from .scenario import EnergyScenario
 from .search import AStar, Dijkstra, DStarLite, MPDStarLite
 
-__all__ = ["run_energy_scenario", "PLANNERS", "simulate_path"]
+__all__ = [
+    "run_energy_scenario",
+    "PLANNERS",
+    "simulate_path",
+    "replay_indices",
+    "penalised_roadmap",
+    "PhaseClock",
+]
 
 PLANNERS = {"mpdstar": MPDStarLite, "dstar": DStarLite, "astar": AStar, "dijkstra": Dijkstra}
 
@@ -84,6 +94,82 @@ def _json(obj: Any) -> Any:
     return obj
 
 
+#: At most about this many samples of the simulated motion go into replay.html.
+REPLAY_SAMPLES = 600
+
+
+def replay_indices(n: int, target: int = REPLAY_SAMPLES) -> np.ndarray:
+    """Indices of the samples (of ``n``) recorded in the replay: every ``stride``-th one
+    (``stride = max(1, round(n / target))``) and always the last, so the replay ends at
+    the goal. When ``n - 1`` is not on the stride grid it replaces the last grid sample
+    (the final gap is then between ``stride + 1`` and ``2·stride − 1`` samples), so no gap is
+    shorter than the stride and the frame rate is not raised for it."""
+    if n < 1:
+        raise ValueError(f"need at least one sample, got {n}")
+    stride = max(1, int(round(n / target)))
+    idx = np.arange(0, n, stride)
+    if idx[-1] != n - 1:
+        if len(idx) > 1:
+            idx[-1] = n - 1
+        else:
+            idx = np.array([0, n - 1])
+    return idx
+
+
+def penalised_roadmap(roadmap: Roadmap, pairs, factor: float) -> Roadmap:
+    """A copy of ``roadmap`` whose edges between the undirected node pairs ``pairs`` (both
+    directions) cost ``factor`` times more (∞: removed), as in
+    :func:`~mpd_pin.execution.plan_avoiding_hazards`. Only for planning: report energies
+    from the original roadmap."""
+    pen = {(min(u, v), max(u, v)) for u, v in pairs}
+    mask = np.array(
+        [
+            (min(u, v), max(u, v)) in pen
+            for u, v in zip(roadmap.src.tolist(), roadmap.dst.tolist(), strict=True)
+        ],
+        dtype=bool,
+    )
+    energy = np.array(roadmap.energy, dtype=float, copy=True)
+    energy[mask] = energy[mask] * factor if math.isfinite(factor) else math.inf
+    return replace(roadmap, energy=energy)
+
+
+def straight_line_configurations(roadmap: Roadmap, nodes: list[int], resolution: float):
+    """Configurations along the straight joint-space edges through ``nodes`` (the geometric
+    path the quintic reference follows), ``resolution`` rad apart."""
+    Q = [roadmap.nodes[nodes[0]][None]]
+    for u, v in zip(nodes[:-1], nodes[1:], strict=True):
+        Q.append(edge_configurations(roadmap.nodes[u], roadmap.nodes[v], resolution)[1:])
+    return np.concatenate(Q)
+
+
+class PhaseClock:
+    """Wall-clock (:func:`time.perf_counter`) and CPU (:func:`time.process_time`) seconds
+    per phase. CPU time is that of this process summed over its threads (Pinocchio's
+    OpenMP batches), so it can exceed the wall time; child processes (the meshcat
+    server) are not included."""
+
+    def __init__(self) -> None:
+        self.wall: dict[str, float] = {}
+        self.cpu: dict[str, float] = {}
+        self._wall0 = time.perf_counter()
+        self._cpu0 = time.process_time()
+
+    @contextmanager
+    def phase(self, name: str) -> Iterator[None]:
+        w, c = time.perf_counter(), time.process_time()
+        try:
+            yield
+        finally:
+            self.wall[name] = self.wall.get(name, 0.0) + time.perf_counter() - w
+            self.cpu[name] = self.cpu.get(name, 0.0) + time.process_time() - c
+
+    def finish(self) -> None:
+        """Record the ``total`` since construction."""
+        self.wall["total"] = time.perf_counter() - self._wall0
+        self.cpu["total"] = time.process_time() - self._cpu0
+
+
 def run_energy_scenario(
     scn: EnergyScenario,
     out_dir: Path,
@@ -102,19 +188,17 @@ def run_energy_scenario(
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    cpu: dict[str, float] = {}
-    t_all = time.perf_counter()
-    cpu_all = time.process_time()
-    drive = scn.drive()
-    world = scn.world
-    world.reset()
-    checker = CollisionChecker(scn.arm, world)
-    cost = EnergyCost(drive, scn.options.dt)
-    roadmap = build_roadmap(
-        cost, checker, scn.start, scn.goal, scn.options, cache=cache, show_progress=show_progress
-    )
-    cpu.update({f"roadmap_{k}": v for k, v in roadmap.timings.items()})
-    cpu["roadmap_total"] = time.perf_counter() - t_all
+    clock = PhaseClock()
+    with clock.phase("roadmap"):
+        drive = scn.drive()
+        world = scn.world
+        world.reset()
+        checker = CollisionChecker(scn.arm, world)
+        cost = EnergyCost(drive, scn.options.dt)
+        roadmap = build_roadmap(
+            cost, checker, scn.start, scn.goal, scn.options, cache=cache,
+            show_progress=show_progress,
+        )
     planner_cls = PLANNERS[scn.planner]
     result: dict[str, Any] = {
         "scenario": scn.name,
@@ -137,72 +221,71 @@ def run_energy_scenario(
         "world": world.to_dict(),
     }
 
-    t0 = time.perf_counter()
     hazard = None
-    other_paths: dict[str, np.ndarray] = {}
-    if any(h.clearance > 0 for h in world.hazards):
-        hazard = plan_avoiding_hazards(
-            roadmap,
-            checker,
-            resolution=scn.options.resolution,
-            penalty=scn.hazard_penalty,
-            planner=planner_cls,
-        )
-        result["hazard_replanning"] = hazard.to_dict()
-        if hazard.first_path != hazard.final_path:
-            other_paths["cheapest path (too close to a hazard)"] = roadmap.nodes[hazard.first_path]
-        if hazard.penalised:  # plan on with the offending edges removed/penalised
-            pen = {tuple(p) for p in hazard.penalised}
-            mask = np.array(
-                [
-                    (min(u, v), max(u, v)) in pen
-                    for u, v in zip(roadmap.src.tolist(), roadmap.dst.tolist(), strict=True)
-                ]
+    other_paths: dict[str, list[int]] = {}  # name → node ids, drawn for comparison
+    plan_map = roadmap  # what the planner sees: hazard penalties applied; energies from roadmap
+    with clock.phase("search"):
+        if any(h.clearance > 0 for h in world.hazards):
+            hazard = plan_avoiding_hazards(
+                roadmap,
+                checker,
+                resolution=scn.options.resolution,
+                penalty=scn.hazard_penalty,
+                planner=planner_cls,
             )
-            factor = scn.hazard_penalty
-            energy = roadmap.energy.copy()
-            energy[mask] = energy[mask] * factor if math.isfinite(factor) else math.inf
-            roadmap = replace(roadmap, energy=energy)
-    if world.hidden_names():
-        run = execute(
-            roadmap,
-            checker,
-            sensor_range=float(scn.sensor_range),
-            resolution=scn.options.resolution,
-            planner=planner_cls,
-        )
-        path = run.travelled
-        result["execution"] = run.to_dict()
-        if run.initial_path != run.travelled:
-            other_paths["initial plan (before the new obstacle)"] = roadmap.nodes[run.initial_path]
-        result["search"] = {
-            "initial_plan_seconds": run.initial_plan_seconds,
-            "expansions": run.initial_expansions,
-        }
-    else:
-        p = planner_cls(roadmap.graph(), roadmap.start, roadmap.goal)
-        ts = time.perf_counter()
-        plan = p.plan()
-        result["search"] = {
-            "initial_plan_seconds": time.perf_counter() - ts,
-            "expansions": p.stats.expansions,
-            "edge_evaluations": p.stats.edge_evaluations,
-        }
-        path = list(plan.nodes)
-    cpu["search"] = time.perf_counter() - t0
+            result["hazard_replanning"] = hazard.to_dict()
+            result["hazard_replanning"]["penalty"] = scn.hazard_penalty
+            result["hazard_replanning"]["satisfied"] = bool(
+                getattr(hazard, "satisfied", hazard.final_margin >= 0.0)
+            )
+            if hazard.first_path != hazard.final_path:
+                other_paths["cheapest path (too close to a hazard)"] = hazard.first_path
+            if hazard.penalised:  # plan on with the offending edges removed/penalised
+                plan_map = penalised_roadmap(roadmap, hazard.penalised, scn.hazard_penalty)
+        if world.hidden_names():
+            run = execute(
+                plan_map,
+                checker,
+                sensor_range=float(scn.sensor_range),
+                resolution=scn.options.resolution,
+                planner=planner_cls,
+            )
+            path = run.travelled
+            result["execution"] = run.to_dict()
+            # The planner's costs may carry hazard penalties; energies are the roadmap's own.
+            travelled_energy = roadmap.path_energy(run.travelled)
+            result["execution"]["energy_per_joint"] = travelled_energy
+            result["execution"]["total_energy"] = float(travelled_energy.sum())
+            if run.initial_path != run.travelled:
+                other_paths["initial plan (before the new obstacle)"] = run.initial_path
+            result["search"] = {
+                "initial_plan_seconds": run.initial_plan_seconds,
+                "expansions": run.initial_expansions,
+            }
+        else:
+            p = planner_cls(roadmap.graph(), roadmap.start, roadmap.goal)
+            ts = time.perf_counter()
+            plan = p.plan()
+            result["search"] = {
+                "initial_plan_seconds": time.perf_counter() - ts,
+                "expansions": p.stats.expansions,
+                "edge_evaluations": p.stats.edge_evaluations,
+            }
+            # With hazards the path is the re-planned one (penalised costs); else the plan.
+            path = list(hazard.final_path) if hazard is not None else list(plan.nodes)
 
-    energy = roadmap.path_energy(path)
+    energy = roadmap.path_energy(path)  # unpenalised E⁺ per joint (J)
+
+    with clock.phase("verification"):
+        series = simulate_path(drive, roadmap, path, scn.options.dt)
     result["path"] = {
         "nodes": [int(n) for n in path],
         "configurations": roadmap.nodes[path],
         "length_nodes": len(path),
+        "node_times": series["node_times"],  # s: the arm is at nodes[k] at node_times[k]
     }
     result["energy_per_joint"] = energy
     result["total_energy"] = float(energy.sum())
-
-    t0 = time.perf_counter()
-    series = simulate_path(drive, roadmap, path, scn.options.dt)
-    cpu["verification"] = time.perf_counter() - t0
     recomputed = series["edge_energy"].sum(axis=0)
     result["verification"] = {
         "energy_per_joint_simulate_edge": recomputed,
@@ -214,51 +297,70 @@ def run_energy_scenario(
         "duration": float(series["t"][-1]),
     }
 
-    t0 = time.perf_counter()
-    names = scn.arm.joint_names
-    figs = {
-        "path.png": plot_arm_path(
-            scn.arm,
-            world,
-            roadmap.nodes[path],
-            Q_motion=series["q"],
-            other_paths=other_paths,
-            title=f"{scn.name}: {result['total_energy']:.4g} J, {len(path)} nodes",
-        ),
-        "joint_angles.png": plot_joint_angles(
-            series["t"], series["q"], names, node_times=series["node_times"]
-        ),
-        "energy.png": plot_cumulative_energy(series["t"], series["energy_t"], names),
-    }
-    for fname, fig in figs.items():
-        fig.savefig(out_dir / fname, dpi=110)
-        plt.close(fig)
-    cpu["plots"] = time.perf_counter() - t0
+    with clock.phase("plots"):
+        names = scn.arm.joint_names
+        figs = {
+            "path.png": plot_arm_path(
+                scn.arm,
+                world,
+                roadmap.nodes[path],
+                Q_motion=series["q"],
+                other_paths={k: roadmap.nodes[v] for k, v in other_paths.items()},
+                title=f"{scn.name}: {result['total_energy']:.4g} J, {len(path)} nodes",
+            ),
+            "joint_angles.png": plot_joint_angles(
+                series["t"], series["q"], names, node_times=series["node_times"]
+            ),
+            "energy.png": plot_cumulative_energy(series["t"], series["energy_t"], names),
+        }
+        for fname, fig in figs.items():
+            fig.savefig(out_dir / fname, dpi=110)
+            plt.close(fig)
 
     if replay:
+        from .plots import ee_trace
         from .replay import write_replay
 
-        t0 = time.perf_counter()
-        reveal = {}
-        if "execution" in result:
-            t_nodes = series["node_times"]  # the arm is at travelled[step] at t_nodes[step]
-            for ev in result["execution"]["replans"]:
-                for name in ev["revealed"]:
-                    reveal[name] = float(t_nodes[min(ev["step"], len(t_nodes) - 1)])
-        stride = max(1, int(round(len(series["t"]) / 600)))
-        write_replay(
-            scn.arm,
-            world,
-            series["t"][::stride],
-            series["q"][::stride],
-            out_dir / "replay.html",
-            reveal_times=reveal,
-            title=scn.name,
-        )
-        cpu["replay"] = time.perf_counter() - t0
-    cpu["total"] = time.perf_counter() - t_all
-    result["seconds_per_phase"] = cpu  # wall-clock seconds (Pinocchio batches use all cores)
-    result["cpu_seconds_total"] = time.process_time() - cpu_all
+        with clock.phase("replay"):
+            reveal = {}
+            if "execution" in result:
+                t_nodes = series["node_times"]  # the arm is at travelled[step] at t_nodes[step]
+                for ev in result["execution"]["replans"]:
+                    for name in ev["revealed"]:
+                        reveal[name] = float(t_nodes[min(ev["step"], len(t_nodes) - 1)])
+            idx = replay_indices(len(series["t"]), REPLAY_SAMPLES)
+            t_rep, q_rep = series["t"][idx], series["q"][idx]
+            lines = {"end effector (travelled)": ee_trace(scn.arm, q_rep)}
+            for name, nodes in other_paths.items():
+                lines[f"end effector ({name})"] = ee_trace(
+                    scn.arm, straight_line_configurations(roadmap, nodes, scn.options.resolution)
+                )
+            write_replay(
+                scn.arm,
+                world,
+                t_rep,
+                q_rep,
+                out_dir / "replay.html",
+                reveal_times=reveal,
+                paths=lines,
+                title=scn.name,
+            )
+            result["replay"] = {
+                "samples": len(idx),
+                "sample_indices": idx,  # into the simulated motion (step dt)
+                "times": t_rep,
+                "reveal_times": reveal,
+                "paths": list(lines),
+            }
+    clock.finish()
+    # Wall-clock seconds per phase; the roadmap's own sub-phases (wall-clock) beside them.
+    wall = {f"roadmap_{k}": v for k, v in roadmap.timings.items()}
+    wall["roadmap_total"] = clock.wall["roadmap"]
+    wall.update({k: v for k, v in clock.wall.items() if k != "roadmap"})
+    result["seconds_per_phase"] = wall
+    # CPU seconds of this process (all its threads) per phase and in total.
+    result["cpu_seconds_per_phase"] = dict(clock.cpu)
+    result["cpu_seconds_total"] = clock.cpu["total"]
     result["outputs"] = sorted(p.name for p in out_dir.iterdir())
     with open(out_dir / "result.json", "w", encoding="utf-8") as f:
         json.dump(_json(result), f, indent=1)

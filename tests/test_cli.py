@@ -58,6 +58,25 @@ def test_builtin_energy_scenario_end_to_end(name, tmp_path):
     assert result["roadmap"]["num_nodes"] == opts.num_nodes + 2
     for phase in ("roadmap_edge_energies", "search", "verification", "total"):
         assert result["seconds_per_phase"][phase] >= 0
+    # CPU seconds (time.process_time) per phase, beside the wall-clock ones: disjoint phases
+    # inside the total, so they sum to at most the total.
+    phases = ("roadmap", "search", "verification", "plots", "replay")
+    cpu = result["cpu_seconds_per_phase"]
+    assert set(cpu) == {*phases, "total"}
+    assert all(cpu[k] >= 0 for k in cpu), cpu
+    assert sum(cpu[k] for k in phases) <= cpu["total"]
+    assert cpu["roadmap"] > 0  # the edge energies take CPU time, whatever the machine
+    assert result["cpu_seconds_total"] == cpu["total"]
+    wall = result["seconds_per_phase"]
+    assert sum(wall[k] for k in ("roadmap_total", *phases[1:])) <= wall["total"]
+    # The replay ends at the goal: its last sample is the last simulated one.
+    node_times = result["path"]["node_times"]
+    assert len(node_times) == len(Q) and node_times[0] == 0.0
+    rep = result["replay"]
+    assert rep["samples"] == len(rep["times"]) == len(rep["sample_indices"])
+    assert rep["times"][0] == 0.0
+    assert rep["times"][-1] == pytest.approx(node_times[-1], abs=1e-12)
+    assert rep["times"][-1] == result["verification"]["duration"]
     # The path is collision-free against the full world (hidden obstacles included).
     world = World.from_dict({k: v for k, v in result["world"].items()})
     truth = CollisionChecker(scn.arm, world, include_hidden=True)
@@ -295,3 +314,62 @@ def test_unexpected_exceptions_are_one_line(tmp_path, monkeypatch, capsys, exc, 
     assert status == code
     assert captured.err == line + "\n"
     assert captured.out == ""
+
+
+def test_replay_indices_always_end_with_the_last_sample():
+    from mpd_pin.runner import replay_indices
+
+    assert replay_indices(1).tolist() == [0]
+    assert replay_indices(2).tolist() == [0, 1]
+    assert replay_indices(600).tolist() == list(range(600))
+    assert replay_indices(1201).tolist() == [*range(0, 1200, 2), 1200]  # on the grid
+    assert replay_indices(1202).tolist() == [*range(0, 1200, 2), 1201]  # 1201 replaces 1200
+    assert replay_indices(1801, 600).tolist() == [*range(0, 1800, 3), 1800]
+    assert replay_indices(5, 2).tolist() == [0, 2, 4]
+    assert replay_indices(4, 1).tolist() == [0, 3]  # stride 4 > n - 1: the two ends
+    for n in range(1, 3000, 7):
+        idx = replay_indices(n)
+        stride = max(1, round(n / 600))
+        gaps = np.diff(idx)
+        assert idx[0] == 0 and idx[-1] == n - 1, n
+        assert np.all(gaps[:-1] == stride), n
+        if len(idx) > 2:  # the last gap: no shorter than the stride (fps kept), < 2 strides
+            assert stride <= gaps[-1] <= 2 * stride - 1, n
+    with pytest.raises(ValueError):
+        replay_indices(0)
+
+
+def test_finite_hazard_penalty_reports_unpenalised_energy(tmp_path):
+    """With hazard_penalty = 1.2 the re-planned path still takes two penalised edges (each
+    1.2 times dearer to the planner); the reported energy is the edges' own E⁺."""
+    from mpd_pin.runner import run_energy_scenario
+
+    data = load_scenario_data(builtin_scenarios()["hazard"])
+    data["planner"] = {"hazard_penalty": 1.2}
+    # A hidden obstacle far from everything: the execution path (with sensing) runs too.
+    data["obstacles"] = [*data["obstacles"], {"type": "sphere", "name": "far", "hidden": True,
+                                              "center": [0.0, -1.5], "radius": 0.05}]
+    data["sensor"] = {"range": 0.01}
+    scn = parse_energy_scenario(data)
+    result = run_energy_scenario(scn, tmp_path / "o", show_progress=False, replay=False)
+    hz = result["hazard_replanning"]
+    assert hz["penalty"] == 1.2 and hz["penalised_edges"] and hz["rounds"] >= 1
+    nodes = result["path"]["nodes"]
+    penalised = {tuple(e) for e in hz["penalised_edges"]}
+    on_path = [(min(u, v), max(u, v)) in penalised for u, v in zip(nodes[:-1], nodes[1:],
+                                                                  strict=True)]
+    assert any(on_path), "the test needs a penalised edge on the reported path"
+    assert hz["satisfied"] is False and hz["final_margin"] < 0  # a mild penalty: still close
+    assert result["execution"]["replans"] == []
+    assert result["execution"]["travelled"] == nodes
+    drive = scn.drive()
+    Q = np.array(result["path"]["configurations"])
+    E = np.zeros(drive.nq)
+    for k in range(len(Q) - 1):
+        E += mp.simulate_edge(drive, Q[k], Q[k + 1], scn.options.duration, scn.options.dt).energy
+    np.testing.assert_allclose(result["energy_per_joint"], E, rtol=1e-8)
+    np.testing.assert_allclose(result["execution"]["energy_per_joint"], E, rtol=1e-8)
+    assert result["execution"]["total_energy"] == pytest.approx(E.sum(), rel=1e-8)
+    assert result["verification"]["max_relative_difference"] < 1e-8
+    if hz["final_path"] == nodes:
+        np.testing.assert_allclose(hz["final_energy_per_joint"], E, rtol=1e-8)

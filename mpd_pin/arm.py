@@ -254,7 +254,9 @@ class Arm:
         """SHA-256 of everything that determines dynamics and collision geometry.
 
         Joint placements, types and limits, link inertias, gravity, and the
-        collision objects (names, parents, placements, geometry type and size).
+        collision objects (names, parents, placements, geometry type and size, mesh
+        scale, and the SHA-256 of each mesh file's bytes — not its path, so moving
+        the files keeps the fingerprint), and the collision pairs.
         """
         h = hashlib.sha256()
         m = self.model
@@ -267,8 +269,14 @@ class Arm:
         for arr in (m.lowerPositionLimit, m.upperPositionLimit, m.gravity.vector):
             h.update(np.asarray(arr, dtype=float).tobytes())
         for g in self.collision_model.geometryObjects:
-            h.update(f"{g.name}|{g.parentJoint}|{type(g.geometry).__name__}|{g.meshPath}".encode())
+            mesh = Path(g.meshPath) if g.meshPath else None
+            if mesh is not None and mesh.is_file():
+                source = "file:" + hashlib.sha256(mesh.read_bytes()).hexdigest()
+            else:
+                source = g.meshPath  # "CYLINDER", "BOX", ... for primitives
+            h.update(f"{g.name}|{g.parentJoint}|{type(g.geometry).__name__}|{source}".encode())
             h.update(np.asarray(g.placement.homogeneous).tobytes())
+            h.update(np.asarray(g.meshScale, dtype=float).tobytes())
             for attr in ("radius", "halfLength", "halfSide"):
                 if hasattr(g.geometry, attr):
                     h.update(np.atleast_1d(np.asarray(getattr(g.geometry, attr), float)).tobytes())

@@ -157,6 +157,46 @@ def test_srdf_removes_disabled_pairs(tmp_path):
     assert with_srdf.is_free_batch(Q[only_13]).all() and not default.is_free_batch(Q[only_13]).any()
 
 
+def _write_tetrahedron_stl(path, apex):
+    """Binary STL of the tetrahedron (0, 0, 0), (0.1, 0, 0), (0, 0.1, 0), ``apex`` (m)."""
+    import struct
+
+    pts = [(0.0, 0.0, 0.0), (0.1, 0.0, 0.0), (0.0, 0.1, 0.0), apex]
+    tris = [(0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)]
+    out = bytearray(80) + struct.pack("<I", len(tris))
+    for tri in tris:
+        out += struct.pack("<3f", 0.0, 0.0, 0.0)
+        for i in tri:
+            out += struct.pack("<3f", *pts[i])
+        out += b"\0\0"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(bytes(out))
+
+
+def test_fingerprint_covers_mesh_scale_and_file_contents(tmp_path):
+    def arm_with_mesh(mesh, scale):
+        xml = mp.planar_arm_urdf([0.5], [1.0]).replace(
+            '<cylinder radius="0.03" length="0.5"/>', f'<mesh filename="{mesh}" scale="{scale}"/>'
+        )
+        arm = mp.Arm.from_urdf(xml)
+        (go,) = arm.collision_model.geometryObjects
+        assert go.meshPath == str(mesh) and go.geometry.num_vertices == 4
+        np.testing.assert_array_equal(go.meshScale, [float(v) for v in scale.split()])
+        return arm
+
+    a, b = tmp_path / "a" / "tet.stl", tmp_path / "b" / "tet.stl"
+    _write_tetrahedron_stl(a, (0.0, 0.0, 0.1))
+    _write_tetrahedron_stl(b, (0.0, 0.0, 0.1))
+    arm = arm_with_mesh(a, "1 1 1")
+    before = arm.fingerprint()
+    assert arm_with_mesh(a, "1 1 1").fingerprint() == before  # deterministic
+    assert arm_with_mesh(a, "1 2 1").fingerprint() != before  # scale counts
+    assert arm_with_mesh(b, "1 1 1").fingerprint() == before  # same bytes elsewhere: same
+    _write_tetrahedron_stl(a, (0.0, 0.0, 0.2))  # same path, other contents
+    assert arm.fingerprint() != before
+    assert arm.fingerprint() != arm_with_mesh(b, "1 1 1").fingerprint()
+
+
 @pytest.mark.parametrize(
     "srdf, match",
     [

@@ -435,8 +435,9 @@ def build_roadmap(
 ) -> Roadmap:
     """Sample, connect, check and cost a roadmap; start is node 0, goal node 1.
 
-    ``checker`` is a validity checker (``is_free``, ``is_free_batch``,
-    ``edges_free``, ``fingerprint``) for the known world. ``checker_fingerprint``
+    ``checker`` is a validity checker (``arm``, ``is_free``, ``is_free_batch``,
+    ``edges_free``, ``fingerprint``) for the known world; its arm must be the
+    cost's drive arm (the same object or an equal fingerprint). ``checker_fingerprint``
     overrides ``checker.fingerprint()`` in the key (it must change whenever the
     free configurations or edges do). With ``cache`` (a ``.npz`` path), a file
     built with the same key is loaded instead of rebuilding; a file with another
@@ -451,6 +452,15 @@ def build_roadmap(
 
     options = options or RoadmapOptions()
     arm = cost.drive.arm
+    checker_arm = getattr(checker, "arm", None)
+    if checker_arm is not arm and (
+        not callable(getattr(checker_arm, "fingerprint", None))
+        or checker_arm.fingerprint() != arm.fingerprint()
+    ):
+        raise ValueError(
+            f"the checker's arm ({getattr(checker_arm, 'name', None)!r}) is not the arm the cost "
+            f"drives ({arm.name!r}); build both from the same Arm"
+        )
     if checker_fingerprint is None:
         if not callable(getattr(checker, "fingerprint", None)):
             raise ValueError(

@@ -119,8 +119,28 @@ def test_same_seed_same_roadmap_other_seed_differs(setup):
     for name in ("nodes", "src", "dst", "durations", "energy"):
         np.testing.assert_array_equal(getattr(again, name), getattr(rm, name))
     assert again.key == rm.key
-    other = RoadmapOptions(**{**OPTIONS.__dict__, "seed": 4, "num_nodes": 5})
-    assert Roadmap.key_for(cost, checker.fingerprint(), other, START, GOAL) != rm.key
+    other = RoadmapOptions(**{**OPTIONS.__dict__, "seed": 4})
+    diff = build_roadmap(cost, checker, START, GOAL, other, show_progress=False)
+    assert diff.key != rm.key
+    assert diff.key == Roadmap.key_for(cost, checker.fingerprint(), other, START, GOAL)
+    # other samples (start and goal stay nodes 0 and 1), none shared
+    np.testing.assert_array_equal(diff.nodes[:2], rm.nodes[:2])
+    assert diff.nodes.shape == rm.nodes.shape
+    gap = np.linalg.norm(diff.nodes[2:, None] - rm.nodes[None, 2:], axis=2)
+    assert gap.min() > 1e-6
+    assert np.all(checker.is_free_batch(diff.nodes))
+
+
+def test_progress_bars_on_stderr(setup, capsys):
+    arm, drive, world, checker, cost, rm = setup
+    opts = RoadmapOptions(num_nodes=10, k=3, seed=7, duration=0.5, dt=0.01)
+    quiet = build_roadmap(cost, checker, START, GOAL, opts, show_progress=False)
+    assert capsys.readouterr().err == ""
+    loud = build_roadmap(cost, checker, START, GOAL, opts, show_progress=True)
+    err = capsys.readouterr().err
+    assert "sampling:" in err and f"/{opts.num_nodes}" in err, err
+    assert "edge energies:" in err and f"/{loud.num_edges}" in err, err
+    np.testing.assert_array_equal(loud.energy, quiet.energy)
 
 
 def test_save_load_and_refusals(setup, tmp_path):
@@ -341,6 +361,32 @@ def test_bad_start_goal(setup):
         build_roadmap(cost, checker, START, np.array([4.0, 0, 0]), OPTIONS, show_progress=False)
     with pytest.raises(ValueError, match="NaN"):
         build_roadmap(cost, checker, np.array([np.nan, 0, 0]), GOAL, OPTIONS, show_progress=False)
+    with pytest.raises(ValueError, match="goal .* is in collision"):
+        build_roadmap(cost, checker, START, in_wall, OPTIONS, show_progress=False)
+    below = START.copy()
+    below[1] = arm.lower_limits[1] - 0.01
+    with pytest.raises(ValueError, match="start .* outside the joint limits"):
+        build_roadmap(cost, checker, below, GOAL, OPTIONS, show_progress=False)
+    with pytest.raises(ValueError, match="start must have 3 joint values"):
+        build_roadmap(cost, checker, START[:2], GOAL, OPTIONS, show_progress=False)
+
+
+def test_checker_of_another_arm_is_refused(setup):
+    arm, drive, world, checker, cost, rm = setup
+    other = CollisionChecker(mp.builtin_arm("planar_4link"), world)
+    with pytest.raises(ValueError, match="checker's arm .*planar_4link.* is not the arm"):
+        build_roadmap(cost, other, START, GOAL, OPTIONS, show_progress=False)
+    # a 3-link arm that differs only in its last link's length: refused too
+    longer = mp.Arm.from_urdf(mp.planar_arm_urdf([0.5, 0.4, 0.35], [0.5, 0.4, 0.3]))
+    with pytest.raises(ValueError, match="is not the arm"):
+        build_roadmap(cost, CollisionChecker(longer, world), START, GOAL, OPTIONS,
+                      show_progress=False)
+    # an identical arm loaded again is accepted (equal fingerprint)
+    twin = mp.builtin_arm("planar_3link")
+    assert twin is not arm and twin.fingerprint() == arm.fingerprint()
+    again = build_roadmap(cost, CollisionChecker(twin, world), START, GOAL, OPTIONS,
+                          show_progress=False)
+    assert again.key == rm.key
 
 
 def test_duration_rule():

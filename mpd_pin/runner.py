@@ -330,11 +330,13 @@ def run_energy_scenario(
                         reveal[name] = float(t_nodes[min(ev["step"], len(t_nodes) - 1)])
             idx = replay_indices(len(series["t"]), REPLAY_SAMPLES)
             t_rep, q_rep = series["t"][idx], series["q"][idx]
-            lines = {"end effector (travelled)": ee_trace(scn.arm, q_rep)}
-            for name, nodes in other_paths.items():
-                lines[f"end effector ({name})"] = ee_trace(
+            lines = {  # plans not followed (straight joint-space edges), then the motion
+                f"end effector ({name})": ee_trace(
                     scn.arm, straight_line_configurations(roadmap, nodes, scn.options.resolution)
                 )
+                for name, nodes in other_paths.items()
+            }
+            lines["end effector (travelled)"] = ee_trace(scn.arm, q_rep)  # drawn last: on top
             write_replay(
                 scn.arm,
                 world,

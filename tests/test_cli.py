@@ -8,9 +8,12 @@ import sys
 import textwrap
 
 import numpy as np
+import pinocchio as pin
 import pytest
+from replay_helpers import animation_clips, decode_commands, screenshots, track
 
 import mpd_pin as mp
+from mpd_pin import replay as rp
 from mpd_pin.collision import CollisionChecker
 from mpd_pin.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
 from mpd_pin.world import World
@@ -33,10 +36,23 @@ def test_scenarios_lists_all_builtins():
         assert expected in names
 
 
+@pytest.fixture(scope="module")
+def builtin_run(tmp_path_factory):
+    """``mpd-pin run NAME --out DIR --quiet`` once per built-in scenario → (process, DIR)."""
+    runs = {}
+
+    def run(name):
+        if name not in runs:
+            out = tmp_path_factory.mktemp(name) / "out"
+            runs[name] = (run_cli("run", name, "--out", str(out), "--quiet"), out)
+        return runs[name]
+
+    return run
+
+
 @pytest.mark.parametrize("name", ENERGY_SCENARIOS)
-def test_builtin_energy_scenario_end_to_end(name, tmp_path):
-    out = tmp_path / "out"
-    res = run_cli("run", name, "--out", str(out), "--quiet")
+def test_builtin_energy_scenario_end_to_end(name, builtin_run):
+    res, out = builtin_run(name)
     assert res.returncode == 0, res.stderr
     result = json.loads((out / "result.json").read_text())
     for fname in ("path.png", "joint_angles.png", "energy.png", "replay.html"):
@@ -86,6 +102,110 @@ def test_builtin_energy_scenario_end_to_end(name, tmp_path):
         assert result["execution"]["replans"], "a hidden obstacle must trigger a replan"
     if any(h["clearance"] > 0 for h in result["world"]["hazards"]):
         assert result["hazard_replanning"]["final_margin"] >= 0
+
+
+def _ee_positions(arm, Q):
+    model, data = arm.model, arm.model.createData()
+    fid = model.getFrameId("ee")
+    out = []
+    for q in Q:
+        pin.framesForwardKinematics(model, data, q)
+        out.append(data.oMf[fid].translation.copy())
+    return np.array(out)
+
+
+def _line_points(commands, name):
+    (cmd,) = [c for c in commands if c["type"] == "set_object"
+              and c["path"] == f"/meshcat/{rp.PATHS_NODE}/{name}"]
+    pos = cmd["object"]["geometries"][0]["data"]["attributes"]["position"]
+    assert pos["itemSize"] == 3
+    arr = pos["array"]  # msgpack extension 0x17: little-endian float32 array
+    assert arr.type == 0x17
+    return np.frombuffer(arr.data, dtype="<f4").reshape(-1, 3)
+
+
+def _orange(img):
+    r, g, b = img.astype(int).transpose(2, 0, 1)
+    return (r > 180) & (g > 90) & (g < 190) & (b < 60)  # replay.HIDDEN_COLOR 0xF08C00
+
+
+def test_replan_replay_html_decoded_and_rendered(builtin_run, tmp_path):
+    """The command's own replay.html for the replan scenario: one keyframe per recorded
+    sample, the last one at the end of the motion, the hidden obstacle switched on at the
+    replan (the time of node_times[step]), the end-effector traces, and a real picture."""
+    res, out = builtin_run("replan")
+    assert res.returncode == 0, res.stderr
+    result = json.loads((out / "result.json").read_text())
+    page = (out / "replay.html").read_text(encoding="utf-8")
+    scn = parse_energy_scenario(load_scenario_data(builtin_scenarios()["replan"]))
+    arm, drive, opts = scn.arm, scn.drive(), scn.options
+
+    # The motion, simulated here edge by edge; the replay records the samples at indices.
+    Q = np.array(result["path"]["configurations"])
+    qs = [Q[:1]]
+    for k in range(len(Q) - 1):
+        qs.append(mp.simulate_edge(drive, Q[k], Q[k + 1], opts.duration, opts.dt).q[1:])
+    q_sim = np.concatenate(qs)
+    t_sim = np.arange(len(q_sim)) * opts.dt
+    rep = result["replay"]
+    idx = np.array(rep["sample_indices"])
+    times = np.array(rep["times"])
+    assert idx[0] == 0 and idx[-1] == len(q_sim) - 1  # ends with the last simulated sample
+    np.testing.assert_allclose(times, t_sim[idx], atol=1e-9)
+    assert times[-1] == pytest.approx((len(Q) - 1) * opts.duration, abs=1e-9)
+
+    clips = animation_clips(page)
+    (fps,) = {c["fps"] for c in clips.values()}
+    expected = np.floor((times - times[0]) * fps + 0.5).astype(int)
+    assert np.all(np.diff(expected) > 0)
+    data, gdata = arm.model.createData(), arm.visual_model.createData()
+    names = [g.name for g in arm.visual_model.geometryObjects]
+    assert len(names) == arm.nq
+    for gid, name in enumerate(names):
+        clip = clips[f"/meshcat/{rp.ARM_NODE}/visuals/{name}"]
+        frames, pos = track(clip, "position")
+        assert len(frames) == rep["samples"] == len(idx)  # one keyframe per recorded sample
+        assert frames == expected.tolist()
+        for k in (0, len(idx) // 2, len(idx) - 1):  # first, middle and final pose
+            pin.forwardKinematics(arm.model, data, q_sim[idx[k]])
+            pin.updateGeometryPlacements(arm.model, data, arm.visual_model, gdata)
+            np.testing.assert_allclose(pos[k], gdata.oMg[gid].translation, atol=1e-9)
+
+    # The hidden obstacle appears at the replan: the frame of node_times[step].
+    (event,) = result["execution"]["replans"]
+    assert event["revealed"] == ["newcomer"]
+    t_reveal = result["path"]["node_times"][event["step"]]
+    assert rep["reveal_times"] == {"newcomer": t_reveal}
+    on = int(np.floor((t_reveal - times[0]) * fps + 0.5))
+    assert 0 < on < expected[-1]  # revealed mid-motion
+    frames, visible = track(clips[f"/meshcat/{rp.WORLD_NODE}/obstacles/newcomer"], "visible")
+    assert frames[visible.index(True)] == on
+    assert all(v is (f >= on) for f, v in zip(frames, visible, strict=True))
+    commands = decode_commands(page)
+    assert {"type": "set_property", "path": f"/meshcat/{rp.WORLD_NODE}/obstacles/newcomer",
+            "property": "visible", "value": False} in commands
+
+    # End-effector traces: the travelled motion at the recorded samples, and the initial
+    # plan along its straight joint-space edges.
+    travelled = _line_points(commands, "end effector (travelled)")
+    np.testing.assert_allclose(travelled, _ee_positions(arm, q_sim[idx]), atol=1e-6)
+    initial = _line_points(commands, "end effector (initial plan (before the new obstacle))")
+    assert result["execution"]["initial_path"] != result["path"]["nodes"]
+    assert len(initial) > len(result["execution"]["initial_path"])
+    np.testing.assert_allclose(initial[0], travelled[0], atol=1e-6)  # both from the start
+    assert np.linalg.norm(initial[-1] - _ee_positions(arm, Q[-1:])[0]) < 1e-6  # to the goal
+
+    # Rendered: before the reveal no orange obstacle; after the motion a real picture
+    # with the revealed obstacle on screen.
+    early = screenshots({"early": out / "replay.html"}, tmp_path, virtual_time_ms=1000)["early"]
+    late_ms = int(1000 * (times[-1] + 2.0))
+    late = screenshots({"late": out / "replay.html"}, tmp_path, virtual_time_ms=late_ms)["late"]
+    for img in (early, late):
+        assert img.shape == (600, 800, 3)
+        assert len(np.unique(img.reshape(-1, 3), axis=0)) > 200  # not blank
+        assert img.astype(int).std() > 20.0
+    assert _orange(early).sum() == 0
+    assert _orange(late).sum() > 500, _orange(late).sum()
 
 
 def _write(tmp_path, text):

@@ -1,0 +1,78 @@
+"""Shared test helpers for meshcat replays: decode the scene commands embedded in a
+``replay.html`` and screenshot pages with headless Chromium.
+
+Chromium (Debian package ``chromium``, /usr/bin/chromium) is required: the CI script
+installs it, so a missing browser fails the run instead of skipping it.
+"""
+
+from __future__ import annotations
+
+import base64
+import os
+import re
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+import umsgpack  # meshcat's msgpack implementation (u-msgpack-python)
+
+CHROMIUM = "/usr/bin/chromium"
+_COMMAND = re.compile(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)")
+
+
+def decode_commands(page: str) -> list[dict]:
+    """The scene commands that meshcat's static_html embeds (msgpack, base64)."""
+    return [umsgpack.unpackb(base64.b64decode(b)) for b in _COMMAND.findall(page)]
+
+
+def animation_clips(page: str) -> dict[str, dict]:
+    """Scene path → clip of the (single) set_animation command in the page."""
+    anims = [c for c in decode_commands(page) if c.get("type") == "set_animation"]
+    assert len(anims) == 1, f"expected one set_animation command, found {len(anims)}"
+    return {a["path"]: a["clip"] for a in anims[0]["animations"]}
+
+
+def track(clip: dict, name: str) -> tuple[list, list]:
+    """(frames, values) of the track ``.name`` of a clip."""
+    (tr,) = [t for t in clip["tracks"] if t["name"] == "." + name]
+    return [k["time"] for k in tr["keys"]], [k["value"] for k in tr["keys"]]
+
+
+def screenshots(
+    pages: dict[str, Path], tmp: Path, virtual_time_ms: int = 5000
+) -> dict[str, np.ndarray]:
+    """Render each page with headless Chromium (in parallel); name → (600, 800, 3) uint8.
+
+    The picture is taken after ``virtual_time_ms`` of the page's virtual time (the
+    animation plays in it)."""
+    from PIL import Image
+
+    if not os.path.exists(CHROMIUM):
+        pytest.fail(f"{CHROMIUM} not found: install the Debian package 'chromium' (.ci/run does)")
+    procs = {}
+    for name, page in pages.items():
+        png = tmp / f"{name}.png"
+        args = [
+            CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu",
+            "--disable-background-networking", "--no-first-run", "--disable-component-update",
+            "--disable-sync", f"--user-data-dir={tmp / ('profile-' + name)}",
+            f"--screenshot={png}", "--window-size=800,600",
+            f"--virtual-time-budget={virtual_time_ms}",
+            # No host name resolves: the page must render from the file alone.
+            "--host-resolver-rules=MAP * ~NOTFOUND",
+            page.resolve().as_uri(),
+        ]
+        procs[name] = (png, subprocess.Popen(args, stdout=subprocess.PIPE,
+                                              stderr=subprocess.STDOUT))
+    out = {}
+    for name, (png, proc) in procs.items():
+        try:
+            log, _ = proc.communicate(timeout=90)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.communicate()
+            pytest.fail(f"chromium timed out on {name}")
+        assert proc.returncode == 0 and png.exists(), log.decode(errors="replace")[-2000:]
+        out[name] = np.asarray(Image.open(png).convert("RGB"))
+    return out

@@ -1,7 +1,8 @@
 """Matplotlib figures of a planned motion (paper 000 Figs. 12–17).
 
 * :func:`plot_arm_path` — the arm at every path node over the obstacles, with
-  the end-effector trace (x–z plane for planar arms; a 3-D view otherwise);
+  the end-effector trace (x–z plane for planar arms; a 3-D view otherwise, where
+  boxes, cylinders, spheres and extruded polygons are drawn as shaded solids);
 * :func:`plot_joint_angles` — joint angles (rad) against time (s);
 * :func:`plot_cumulative_energy` — E⁺ per joint (J) accumulated against time (s).
 
@@ -16,10 +17,12 @@ import numpy as np
 import pinocchio as pin
 
 from .arm import Arm
-from .world import Hazard, World
+from .world import Box, Cylinder, Hazard, Polygon, Sphere, World
 
 __all__ = [
     "draw_world_xz",
+    "draw_world_3d",
+    "shape_faces",
     "arm_points",
     "ee_trace",
     "is_planar_xz",
@@ -72,6 +75,102 @@ def draw_world_xz(ax, world: World | None, *, show_hidden: bool = True) -> list:
         cx, cz = section.mean(axis=0)
         ax.annotate(item.name, (cx, cz), ha="center", va="center", fontsize=7)
     return patches
+
+
+def shape_faces(shape, n: int = 24) -> list[np.ndarray]:
+    """The surface of an obstacle shape as planar polygons in world coordinates (m).
+
+    Boxes: their 6 faces; cylinders: ``n`` side quads and the two end caps;
+    extruded polygons: side quads and the two caps; spheres: quads of an
+    ``n`` × ``n/2`` latitude–longitude grid. Each face is a (k, 3) array.
+    """
+    if isinstance(shape, Sphere):
+        lon = np.linspace(0.0, 2.0 * np.pi, n + 1)
+        lat = np.linspace(-np.pi / 2.0, np.pi / 2.0, n // 2 + 1)
+        r, c = shape.radius, np.array(shape.position)
+
+        def pt(a, b):
+            return c + r * np.array([np.cos(b) * np.cos(a), np.cos(b) * np.sin(a), np.sin(b)])
+
+        return [
+            np.array([pt(lon[i], lat[j]), pt(lon[i + 1], lat[j]),
+                      pt(lon[i + 1], lat[j + 1]), pt(lon[i], lat[j + 1])])
+            for i in range(n)
+            for j in range(n // 2)
+        ]
+    if isinstance(shape, Box):
+        h = np.array(shape.size) / 2.0
+        faces = []
+        for axis in range(3):
+            u, v = [a for a in range(3) if a != axis]
+            for side in (-1.0, 1.0):
+                quad = np.zeros((4, 3))
+                quad[:, axis] = side * h[axis]
+                quad[:, u] = np.array([-1, 1, 1, -1]) * h[u]
+                quad[:, v] = np.array([-1, -1, 1, 1]) * h[v]
+                faces.append(quad)
+    elif isinstance(shape, Cylinder):
+        a = 2.0 * np.pi * np.arange(n) / n
+        ring = np.column_stack([shape.radius * np.cos(a), shape.radius * np.sin(a)])
+        half = shape.length / 2.0
+        bottom = np.column_stack([ring, np.full(n, -half)])
+        top = np.column_stack([ring, np.full(n, half)])
+        faces = [bottom, top] + [
+            np.array([bottom[k], bottom[(k + 1) % n], top[(k + 1) % n], top[k]]) for k in range(n)
+        ]
+    elif isinstance(shape, Polygon):
+        v = np.array(shape.vertices_xz)
+        half = shape.thickness / 2.0
+        m = len(v)
+        front = np.column_stack([v[:, 0], np.full(m, -half), v[:, 1]])
+        back = np.column_stack([v[:, 0], np.full(m, half), v[:, 1]])
+        faces = [front, back] + [
+            np.array([front[k], front[(k + 1) % m], back[(k + 1) % m], back[k]]) for k in range(m)
+        ]
+    else:
+        raise TypeError(f"cannot draw a {type(shape).__name__}")
+    R, p = shape.rotation_matrix, np.array(shape.position)
+    return [f @ R.T + p for f in faces]
+
+
+def draw_world_3d(ax, world: World | None, *, show_hidden: bool = True) -> list:
+    """Draw obstacles and hazards as shaded solids on a 3-D axes (``projection="3d"``).
+
+    Obstacles grey, hazards translucent red, obstacles not yet known translucent
+    purple with dashed edges. Each collection's ``gid`` is the obstacle's name.
+    Returns the ``Poly3DCollection`` objects.
+    """
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    out = []
+    if world is None:
+        return out
+    for item in world:
+        hidden = not world.is_known(item.name)
+        if hidden and not show_hidden:
+            continue
+        shape = item.shape if isinstance(item, Hazard) else item
+        if isinstance(item, Hazard):
+            color, alpha = HAZARD_COLOR, 0.25
+        elif item.hidden:
+            color, alpha = HIDDEN_COLOR, 0.25 if hidden else 0.6
+        else:
+            color, alpha = OBSTACLE_COLOR, 0.55
+        width = {Sphere: 0.0, Cylinder: 0.2}.get(type(shape), 0.6)  # curved: faint facets
+        coll = Poly3DCollection(
+            shape_faces(shape),
+            facecolors=color,
+            edgecolors="black" if width else "none",
+            linewidths=width,
+            linestyles="--" if hidden else "-",
+            alpha=alpha,
+        )
+        coll.set_gid(item.name)
+        ax.add_collection3d(coll)
+        out.append(coll)
+        x, y, z = shape.position
+        ax.text(x, y, z, item.name, fontsize=7)
+    return out
 
 
 def arm_points(arm: Arm, q: np.ndarray, ee_frame: str | None = None) -> np.ndarray:
@@ -153,19 +252,25 @@ def plot_arm_path(
         for q in Q_nodes:
             p = arm_points(arm, q)
             ax.plot(p[:, 0], p[:, 1], p[:, 2], "-o", color="#3d5a80", alpha=0.5, ms=2)
-        if world is not None:
-            for item in world:
-                shape = item.shape if isinstance(item, Hazard) else item
-                x, y, z = shape.position
-                ax.scatter(
-                    [x],
-                    [y],
-                    [z],
-                    marker="s",
-                    s=80,
-                    color=HAZARD_COLOR if isinstance(item, Hazard) else OBSTACLE_COLOR,
-                )
-                ax.text(x, y, z, item.name, fontsize=7)
+        draw_world_3d(ax, world)
+        for (name, Qo), col in zip(
+            (other_paths or {}).items(), ["#81b29a", "#f2cc8f", "#3d405b"], strict=False
+        ):
+            tr = ee_trace(arm, np.asarray(Qo, float))
+            ax.plot(tr[:, 0], tr[:, 1], tr[:, 2], "--", color=col, lw=1.5, label=name)
+        # Equal scale on all axes, framing the arm, the traces and the obstacles.
+        pts = [trace, np.zeros((1, 3))]
+        pts += [arm_points(arm, q) for q in Q_nodes]
+        for item in world or ():
+            shape = item.shape if isinstance(item, Hazard) else item
+            pts += shape_faces(shape)
+        P = np.concatenate(pts)
+        lo, hi = P.min(axis=0), P.max(axis=0)
+        centre, half = (lo + hi) / 2.0, max(float(np.max(hi - lo)) / 2.0, 1e-3) * 1.05
+        ax.set_xlim(centre[0] - half, centre[0] + half)
+        ax.set_ylim(centre[1] - half, centre[1] + half)
+        ax.set_zlim(centre[2] - half, centre[2] + half)
+        ax.set_box_aspect((1.0, 1.0, 1.0))
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
         ax.set_zlabel("z (m)")

@@ -493,3 +493,52 @@ def test_finite_hazard_penalty_reports_unpenalised_energy(tmp_path):
     assert result["verification"]["max_relative_difference"] < 1e-8
     if hz["final_path"] == nodes:
         np.testing.assert_allclose(hz["final_energy_per_joint"], E, rtol=1e-8)
+
+
+def test_plot_3d_draws_obstacles_as_solids():
+    """Non-planar arms: every obstacle is a Poly3DCollection whose vertices lie on the
+    shape's surface (boxes: exactly its corners), not a marker at its position."""
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    from mpd_pin.plots import plot_arm_path, shape_faces
+    from mpd_pin.world import Box, Cylinder, Hazard, Polygon, Sphere
+
+    arm = mp.Arm.from_example_robot_data("panda")
+    box = Box((0.2, 0.3, 0.1), position=(0.5, 0.2, 0.3), rpy=(0.3, 0.2, 0.5), name="tilted")
+    can = Cylinder(0.08, 0.4, position=(0.3, -0.4, 0.2), rpy=(0.0, 0.6, 0.0), name="can")
+    ball = Sphere(0.1, position=(-0.3, 0.3, 0.5), name="ball", hidden=True)
+    wedge = Polygon([(0.0, 0.0), (0.2, 0.0), (0.1, 0.2)], thickness=0.1,
+                    position=(-0.4, -0.3, 0.1), name="wedge")
+    zone = Sphere(0.12, position=(0.0, 0.5, 0.2), name="zone")
+    world = World((box, can, ball, wedge, Hazard(zone, 0.05)))
+    Q = np.array([arm.q_reference, arm.q_reference + 0.5])
+    fig = plot_arm_path(arm, world, Q)
+    ax = fig.axes[0]
+    solids = {c.get_gid(): c for c in ax.collections if isinstance(c, Poly3DCollection)}
+    assert set(solids) == {"tilted", "can", "ball", "wedge", "zone"}
+    assert not [c for c in ax.collections if not isinstance(c, Poly3DCollection)]  # no dots
+    plt.close(fig)
+
+    def local(shape, P):
+        return (P - np.array(shape.position)) @ shape.rotation_matrix
+
+    faces = shape_faces(box)
+    assert len(faces) == 6 and all(f.shape == (4, 3) for f in faces)
+    corners = {tuple(np.round(c, 12)) for c in np.concatenate(faces)}
+    expected = {tuple(np.round(box.placement.act(0.5 * np.array([sx, sy, sz]) * box.size), 12))
+                for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)}
+    assert corners == expected
+    for f in faces:  # each face is planar: its corners span a plane
+        assert np.linalg.matrix_rank(f[1:] - f[0], tol=1e-12) == 2
+    P = local(can, np.concatenate(shape_faces(can)))
+    np.testing.assert_allclose(np.hypot(P[:, 0], P[:, 1]), can.radius, atol=1e-12)
+    np.testing.assert_allclose(np.abs(P[:, 2]), can.length / 2, atol=1e-12)
+    for sph in (ball, zone):
+        P = np.concatenate(shape_faces(sph))
+        np.testing.assert_allclose(np.linalg.norm(P - sph.position, axis=1), sph.radius,
+                                   atol=1e-12)
+    P = local(wedge, np.concatenate(shape_faces(wedge)))
+    np.testing.assert_allclose(np.abs(P[:, 1]), wedge.thickness / 2, atol=1e-12)
+    assert {tuple(np.round(p, 12)) for p in P[:, [0, 2]]} == {
+        tuple(np.round(v, 12)) for v in wedge.vertices_xz}

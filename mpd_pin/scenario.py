@@ -55,8 +55,13 @@ Scenarios of ``kind = "dynamic2link"`` (paper 002) are read by
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import sys
+import tempfile
 import tomllib
+from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
@@ -148,6 +153,44 @@ def load_scenario_data(path: Path) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------- parts
+@contextlib.contextmanager
+def _native_stderr(captured: list[str]) -> Iterator[None]:
+    """Send file descriptor 2 (what C++ libraries such as urdfdom print) to a temporary file
+    for the duration; its text is appended to ``captured``."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile(mode="w+b") as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield
+        finally:
+            sys.stderr.flush()
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            captured.append(tmp.read().decode("utf-8", errors="replace"))
+
+
+def _load_urdf(path: Path) -> Arm:
+    """Arm.from_urdf with urdfdom's own messages folded into the one-line error (and
+    passed on to stderr when loading succeeds)."""
+    captured: list[str] = []
+    try:
+        with _native_stderr(captured):
+            arm = Arm.from_urdf(path)
+    except ValueError as exc:
+        errors = [
+            " ".join(line.split()[1:])
+            for line in "".join(captured).splitlines()
+            if line.strip().startswith("Error:")
+        ]
+        detail = f" (urdfdom: {'; '.join(errors)})" if errors else ""
+        raise ConfigError(f"{exc}{detail}") from None
+    if "".join(captured).strip():
+        sys.stderr.write("".join(captured))
+    return arm
+
+
 def _arm(t: Table, base: Path | None) -> Arm:
     choices = [k for k in ("builtin", "urdf", "example_robot_data") if t.has(k)]
     if len(choices) != 1:
@@ -158,7 +201,7 @@ def _arm(t: Table, base: Path | None) -> Arm:
     elif kind == "urdf":
         rel = Path(t.string("urdf"))
         path = rel if rel.is_absolute() or base is None else base / rel
-        arm = Arm.from_urdf(path)
+        arm = _load_urdf(path)
     else:
         arm = Arm.from_example_robot_data(t.string("example_robot_data"))
     t.done()

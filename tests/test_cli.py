@@ -542,3 +542,47 @@ def test_plot_3d_draws_obstacles_as_solids():
     np.testing.assert_allclose(np.abs(P[:, 1]), wedge.thickness / 2, atol=1e-12)
     assert {tuple(np.round(p, 12)) for p in P[:, [0, 2]]} == {
         tuple(np.round(v, 12)) for v in wedge.vertices_xz}
+
+
+def test_goal_in_collision(tmp_path):
+    from mpd_pin.plots import arm_points
+
+    arm = mp.builtin_arm("planar_2link")
+    tip = arm_points(arm, np.array([1.2, -0.4]))[-1]  # the goal's end-effector position
+    start = arm_points(arm, np.array([0.3, 0.2]))
+    assert np.min(np.linalg.norm(start[:, [0, 2]] - tip[[0, 2]], axis=1)) > 0.3
+    text = GOOD + f"""
+    [[obstacles]]
+    type = "sphere"
+    center = [{tip[0]:.6f}, {tip[2]:.6f}]
+    radius = 0.05
+    """
+    res = run_cli("run", str(_write(tmp_path, text)), "--out", str(tmp_path / "o"), "--quiet")
+    assert res.returncode == 2
+    _assert_one_line_error(res, "goal [1.2, -0.4] is in collision")
+
+
+@pytest.mark.parametrize(
+    "urdf, line",
+    [
+        ('<robot name="x"><link name="a">\n',
+         "mpd-pin: error: malformed URDF XML in {path}: Premature end of data in tag link"),
+        ("not xml at all",
+         "mpd-pin: error: malformed URDF XML in {path}: Start tag expected, '<' not found"),
+        # Well-formed XML, but not a valid URDF: urdfdom prints its reasons on the C++
+        # stderr; they end up in the one line.
+        ('<robot name="x"><link name="a"/><link name="b"/><joint name="j" type="revolute">'
+         '<parent link="a"/><child link="b"/><axis xyz="0 1 0"/></joint></robot>',
+         "mpd-pin: error: Pinocchio could not load {path}: The XML stream does not contain a "
+         "valid URDF model. (urdfdom: Joint [j] is of type REVOLUTE but it does not specify "
+         "limits; joint xml is not initialized correctly)"),
+    ],
+)
+def test_malformed_urdf(tmp_path, urdf, line):
+    (tmp_path / "arm.urdf").write_text(urdf)
+    text = GOOD.replace('builtin = "planar_2link"', 'urdf = "arm.urdf"')
+    res = run_cli("run", str(_write(tmp_path, text)), "--out", str(tmp_path / "o"), "--quiet")
+    assert res.returncode == 2
+    expected = line.format(path=tmp_path / "arm.urdf")
+    _assert_one_line_error(res, expected)
+    assert res.stderr.startswith(expected)

@@ -516,7 +516,7 @@ NB03 = [
         from mpd_pin.plots import arm_points, plot_arm_path, plot_cumulative_energy
         from mpd_pin.replay import write_replay
         from mpd_pin.roadmap import EnergyCost, build_roadmap
-        from mpd_pin.runner import simulate_path
+        from mpd_pin.runner import replay_indices, simulate_path, straight_line_configurations
         from mpd_pin.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
 
         NUM_NODES = 80  # random roadmap nodes for the replanning runs (the scenario file: 150)
@@ -679,19 +679,21 @@ NB03 = [
         for ev in run.replans:
             for name in ev.revealed:
                 reveal.setdefault(name, float(t_nodes[min(ev.step, len(t_nodes) - 1)]))
-        stride = max(1, len(series["t"]) // 300)
+        idx = replay_indices(len(series["t"]), 300)  # about 300 samples, always the last one
         before = child_pids()
         with tempfile.TemporaryDirectory() as tmp:
             page = write_replay(
                 scn.arm,
                 scn.world,
-                series["t"][::stride],
-                series["q"][::stride],
+                series["t"][idx],
+                series["q"][idx],
                 Path(tmp) / "replay.html",
                 reveal_times=reveal,
-                paths={
-                    "initial plan": hand(roadmap.nodes[run.initial_path]),
-                    "travelled": hand(series["q"]),
+                paths={  # the initial plan along its straight joint-space edges; the motion
+                    "initial plan": hand(
+                        straight_line_configurations(roadmap, run.initial_path, 0.05)
+                    ),
+                    "travelled": hand(series["q"][idx]),
                 },
                 title="replan: MPD* Lite repairs around a new obstacle",
             )

@@ -1,19 +1,72 @@
 """Run every built-in scenario with the mpd-pin command and print the README results tables.
 
 Usage: python scripts/results_table.py [--out out/] [names...]
-Each scenario runs as ``mpd-pin run NAME --out OUT/NAME --quiet``; the tables are
-read back from the result.json files the command wrote.
+
+Each scenario runs as ``mpd-pin run NAME --out OUT/NAME --quiet``, one after the
+other; the tables are read back from the result.json files the command wrote.
+
+Paper-000 scenarios (the counterpart of paper 000's Tables 8–11): E⁺ per joint
+and in total (J), path length in nodes, roadmap size, and CPU seconds as the
+command measured them (``cpu_seconds_per_phase``: ``time.process_time`` of the
+mpd-pin process, all its threads) for the roadmap, the search (with hazard
+re-planning and sensing/repair) and the whole run, plus the run's wall-clock
+seconds. Paper-002 scenarios: path lengths, motion samples, stop and backward
+events, the command's wall-clock total and the CPU seconds of the mpd-pin
+process measured here (``resource.getrusage(RUSAGE_CHILDREN)``, imports
+included). The last line names the machine.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import platform
+import resource
 import subprocess
 import sys
 from pathlib import Path
 
 from mpd_pin.scenario import builtin_scenarios, load_scenario_data
+
+
+def _child_cpu() -> float:
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
+def energy_row(name: str, r: dict) -> str:
+    per_joint = " / ".join(f"{e:.4g}" for e in r["energy_per_joint"])
+    cpu, wall = r["cpu_seconds_per_phase"], r["seconds_per_phase"]
+    size = f"{r['roadmap']['num_nodes']} / {r['roadmap']['num_edges']}"
+    notes = []
+    if "execution" in r:
+        notes.append(f"{len(r['execution']['replans'])} replan(s)")
+    if "hazard_replanning" in r:
+        h = r["hazard_replanning"]
+        notes.append(
+            f"first path {h['first_total_energy']:.4g} J too close ({h['first_margin']:+.3f} m),"
+            f" re-planned ({h['final_margin']:+.3f} m)"
+            if h["first_path"] != h["final_path"]
+            else f"clearances kept ({h['final_margin']:+.3f} m)"
+        )
+    return (
+        f"| {name} | {r['arm']} | {per_joint} | {r['total_energy']:.4g} | "
+        f"{r['path']['length_nodes']} | {size} | "
+        f"{cpu['roadmap']:.2f} | {1e3 * cpu['search']:.1f} | {cpu['total']:.2f} | "
+        f"{wall['total']:.2f} | {'; '.join(notes)} |"
+    )
+
+
+def dynamic_row(name: str, r: dict, process_cpu: float) -> str:
+    counts = r.get("event_counts") or {}
+    stops = counts.get("stop", sum(1 for e in r["events"] if e.get("type") == "stop"))
+    backward = counts.get("backward", sum(1 for e in r["events"] if e.get("type") == "backward"))
+    return (
+        f"| {name} | {r['path_length_dstar']:.4f} | {r['path_length_pso']:.4f} | "
+        f"{len(r['samples'])} | {stops} | {backward} | {r['timings']['total']:.2f} | "
+        f"{process_cpu:.2f} |"
+    )
 
 
 def main() -> None:
@@ -23,48 +76,40 @@ def main() -> None:
     args = ap.parse_args()
     names = args.names or list(builtin_scenarios())
     energy_rows, dynamic_rows = [], []
+    failed = 0
     for name in names:
         out = Path(args.out) / name
+        cpu0 = _child_cpu()
         res = subprocess.run([sys.executable, "-m", "mpd_pin", "run", name, "--out", str(out),
                               "--quiet"], capture_output=True, text=True)
+        process_cpu = _child_cpu() - cpu0
         if res.returncode != 0:
             print(f"{name}: FAILED: {res.stderr.strip()}", file=sys.stderr)
+            failed += 1
             continue
         r = json.loads((out / "result.json").read_text())
         kind = load_scenario_data(builtin_scenarios()[name]).get("kind", "energy")
         if kind == "energy":
-            per_joint = " / ".join(f"{e:.4g}" for e in r["energy_per_joint"])
-            t = r["seconds_per_phase"]
-            extra = ""
-            if "execution" in r:
-                extra = f"{len(r['execution']['replans'])} replan(s)"
-            if "hazard_replanning" in r:
-                h = r["hazard_replanning"]
-                extra = (f"first path {h['first_total_energy']:.4g} J too close "
-                         f"({h['first_margin']:+.3f} m), re-planned ({h['final_margin']:+.3f} m)")
-            energy_rows.append(
-                f"| {name} | {r['arm']} | {per_joint} | {r['total_energy']:.4g} | "
-                f"{r['path']['length_nodes']} | {r['roadmap']['num_nodes']} | "
-                f"{t['roadmap_total']:.2f} | {1e3 * r['search']['initial_plan_seconds']:.2f} | "
-                f"{t['total']:.2f} | {extra} |"
-            )
+            energy_rows.append(energy_row(name, r))
         else:
-            dynamic_rows.append(
-                f"| {name} | {r['path_length_dstar']:.4f} | {r['path_length_pso']:.4f} | "
-                f"{len(r['samples'])} | "
-                f"{sum(1 for e in r['events'] if e.get('kind', e.get('type')) == 'stop')} | "
-                f"{sum(1 for e in r['events'] if e.get('kind', e.get('type')) != 'stop')} |"
-            )
+            dynamic_rows.append(dynamic_row(name, r, process_cpu))
     if energy_rows:
-        print("| scenario | arm | E⁺ per joint (J) | total (J) | path nodes | roadmap nodes | "
-              "roadmap (s) | search (ms) | total (s) | notes |")
-        print("|---|---|---|---|---|---|---|---|---|---|")
+        print("| scenario | arm | E⁺ per joint (J) | total (J) | path nodes | roadmap nodes / "
+              "edges | CPU roadmap (s) | CPU search (ms) | CPU total (s) | wall total (s) | "
+              "notes |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|")
         print("\n".join(energy_rows))
     if dynamic_rows:
         print()
-        print("| scenario | D* path (m) | D*+PSO path (m) | motion samples | stops | backward |")
-        print("|---|---|---|---|---|---|")
+        print("| scenario | D* path (m) | D*+PSO path (m) | motion samples | stops | backward | "
+              "wall total (s) | CPU process (s) |")
+        print("|---|---|---|---|---|---|---|---|")
         print("\n".join(dynamic_rows))
+    print()
+    print(f"Measured on {platform.machine()}, {os.cpu_count()} cores, Python "
+          f"{platform.python_version()}, {platform.system()} {platform.release()}.")
+    if failed:
+        sys.exit(1)
 
 
 if __name__ == "__main__":

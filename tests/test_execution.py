@@ -1,6 +1,8 @@
 """Execution with replanning on a real roadmap, and hazard re-planning (paper 000 §5.2)."""
 
+import dataclasses
 import math
+import warnings
 
 import networkx as nx
 import numpy as np
@@ -8,7 +10,13 @@ import pytest
 
 import mpd_pin as mp
 from mpd_pin.collision import CollisionChecker
-from mpd_pin.execution import blocked_edges, execute, plan_avoiding_hazards
+from mpd_pin.execution import (
+    HazardClearanceWarning,
+    blocked_edges,
+    execute,
+    penalised_cost,
+    plan_avoiding_hazards,
+)
 from mpd_pin.roadmap import EnergyCost, RoadmapOptions, build_roadmap
 from mpd_pin.search import Dijkstra
 from mpd_pin.world import Box, Cylinder, Hazard, Polygon, World
@@ -102,7 +110,8 @@ def test_goal_cut_off_raises_no_path(arm_drive):
         execute(rm, checker, sensor_range=0.5, resolution=opts.resolution)
 
 
-def test_hazard_replanning(arm_drive):
+@pytest.fixture(scope="module")
+def hazard_setup(arm_drive):
     arm, drive = arm_drive
     # A small hot triangle beside the cheapest route (found by scanning placements once).
     cx, cz = -0.65, 0.2
@@ -114,9 +123,37 @@ def test_hazard_replanning(arm_drive):
     rm = build_roadmap(
         EnergyCost(drive, OPTIONS.dt), checker, START, GOAL, OPTIONS, show_progress=False
     )
-    res = plan_avoiding_hazards(rm, checker, resolution=OPTIONS.resolution)
+    return arm, checker, rm
+
+
+def _penalised_nx(rm, pairs, penalty, floor):
+    """networkx graph of ``rm`` with the edges of ``pairs`` re-costed by penalised_cost."""
+    pen = {(min(u, v), max(u, v)) for u, v in pairs}
+    G = nx.DiGraph()
+    for u, v, c in zip(rm.src.tolist(), rm.dst.tolist(), rm.cost.tolist(), strict=True):
+        if (min(u, v), max(u, v)) in pen:
+            c = penalised_cost(c, penalty, floor)
+        if math.isfinite(c):
+            G.add_edge(u, v, weight=c)
+    return G
+
+
+def _sum_costs(G, nodes):
+    total = 0.0
+    for u, v in zip(nodes[:-1], nodes[1:], strict=True):
+        total += G[u][v]["weight"]
+    return total
+
+
+def test_hazard_replanning(hazard_setup):
+    arm, checker, rm = hazard_setup
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", HazardClearanceWarning)
+        res = plan_avoiding_hazards(rm, checker, resolution=OPTIONS.resolution)
     assert res.first_margin < 0, "the scenario must make the cheapest path violate the clearance"
     assert res.final_margin >= 0
+    assert res.satisfied is True and res.to_dict()["satisfied"] is True
+    assert res.penalty == math.inf and res.to_dict()["penalty_floor"] is None
     assert res.rounds >= 1 and res.penalised
     assert res.final_energy.sum() >= res.first_energy.sum()
     # Brute-force margin of the final path at the check resolution.
@@ -136,4 +173,66 @@ def test_hazard_replanning(arm_drive):
     )
     with pytest.raises(ValueError, match="penalty"):
         plan_avoiding_hazards(rm, checker, resolution=0.05, penalty=0.5)
+    with pytest.raises(ValueError, match="penalty_floor"):
+        plan_avoiding_hazards(rm, checker, resolution=0.05, penalty=2.0, penalty_floor=-1.0)
     assert math.isfinite(res.plan_seconds)
+
+
+def test_penalised_cost_is_at_least_an_additive_floor() -> None:
+    assert penalised_cost(0.0, 10.0, 2.5) == 2.5
+    assert penalised_cost(1.0, 10.0, 2.5) == 10.0
+    assert penalised_cost(0.1, 10.0, 2.5) == 2.6
+    assert penalised_cost(0.0, math.inf, 0.0) == math.inf
+    assert penalised_cost(3.0, 1.0, 0.0) == 3.0
+
+
+def test_finite_penalty_also_penalises_zero_cost_edges(hazard_setup):
+    """A violating path of zero-cost edges: a product alone would keep it; the floor does not."""
+    arm, checker, rm = hazard_setup
+    first = plan_avoiding_hazards(rm, checker, resolution=OPTIONS.resolution).first_path
+    on_first = {(min(u, v), max(u, v)) for u, v in zip(first[:-1], first[1:], strict=True)}
+    energy = np.array(rm.energy, dtype=float, copy=True)
+    for k, (u, v) in enumerate(zip(rm.src.tolist(), rm.dst.tolist(), strict=True)):
+        if (min(u, v), max(u, v)) in on_first:
+            energy[k] = 0.0
+    rm0 = dataclasses.replace(rm, energy=energy)
+    positive = rm0.cost[np.isfinite(rm0.cost) & (rm0.cost > 0)]
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", HazardClearanceWarning)
+        res = plan_avoiding_hazards(rm0, checker, resolution=OPTIONS.resolution, penalty=10.0)
+    assert res.first_path == first and res.first_energy.sum() == 0.0
+    assert res.first_margin < 0
+    assert res.penalty_floor == pytest.approx(9.0 * positive.mean(), rel=1e-12)
+    assert res.satisfied is True and res.final_margin >= 0
+    assert res.final_path != first
+    # The final path is optimal on the penalised graph (networkx, same costs).
+    G = _penalised_nx(rm0, res.penalised, 10.0, res.penalty_floor)
+    assert _sum_costs(G, res.final_path) == nx.dijkstra_path_length(G, rm0.start, rm0.goal)
+
+    # Multiplicative only (floor 0): the zero-cost violating path stays cheapest,
+    # and the result says so instead of passing silently.
+    with pytest.warns(HazardClearanceWarning, match="closer to a hazard"):
+        res0 = plan_avoiding_hazards(
+            rm0, checker, resolution=OPTIONS.resolution, penalty=10.0, penalty_floor=0.0
+        )
+    assert res0.final_path == first
+    assert res0.satisfied is False and res0.final_margin < 0
+    assert res0.to_dict()["satisfied"] is False
+
+
+def test_unsatisfiable_clearance_is_flagged(hazard_setup, arm_drive):
+    """A hazard around the goal's hand: no path can keep the clearance."""
+    arm, _, rm = hazard_setup
+    x, _, z = arm.frame_position(GOAL, "ee")
+    hot = Cylinder.planar((x, z), 0.02, name="hot goal")
+    world = World((Box.planar((0.0, 0.95), 0.25, 0.3, name="wall"),), (Hazard(hot, 0.05),))
+    checker = CollisionChecker(arm, world)
+    assert checker.hazard_margin(rm.nodes[rm.goal]) < 0
+    with pytest.warns(HazardClearanceWarning):
+        res = plan_avoiding_hazards(rm, checker, resolution=OPTIONS.resolution, penalty=100.0)
+    assert res.satisfied is False and res.final_margin < 0
+    assert res.final_path[-1] == rm.goal and res.rounds >= 1
+    # With edges removed instead (the default), the goal is cut off.
+    with pytest.raises(mp.NoPathError):
+        plan_avoiding_hazards(rm, checker, resolution=OPTIONS.resolution)

@@ -116,21 +116,34 @@ def replay_indices(n: int, target: int = REPLAY_SAMPLES) -> np.ndarray:
     return idx
 
 
-def penalised_roadmap(roadmap: Roadmap, pairs, factor: float) -> Roadmap:
-    """A copy of ``roadmap`` whose edges between the undirected node pairs ``pairs`` (both
-    directions) cost ``factor`` times more (∞: removed), as in
-    :func:`~mpd_pin.execution.plan_avoiding_hazards`. Only for planning: report energies
-    from the original roadmap."""
+def penalised_roadmap(roadmap: Roadmap, pairs, penalty: float, floor: float = 0.0) -> Roadmap:
+    """A copy of ``roadmap`` in which the edges between the undirected node pairs ``pairs``
+    (both directions) cost what :func:`~mpd_pin.execution.plan_avoiding_hazards` makes them
+    cost: ``penalised_cost(cost, penalty, floor)`` (∞ removes them). Each such edge's
+    per-joint energies are scaled (or, for a zero-cost edge, raised evenly) so that their
+    sum is the penalised cost. Only for planning: report energies from the original."""
+    from . import execution
+
+    rule = getattr(execution, "penalised_cost", None)
+    if rule is None:  # an execution module without the additive floor: the product alone
+
+        def rule(cost, penalty, floor):
+            return cost * penalty if math.isfinite(penalty) else math.inf
+
     pen = {(min(u, v), max(u, v)) for u, v in pairs}
-    mask = np.array(
-        [
-            (min(u, v), max(u, v)) in pen
-            for u, v in zip(roadmap.src.tolist(), roadmap.dst.tolist(), strict=True)
-        ],
-        dtype=bool,
-    )
     energy = np.array(roadmap.energy, dtype=float, copy=True)
-    energy[mask] = energy[mask] * factor if math.isfinite(factor) else math.inf
+    nq = energy.shape[1]
+    for e, (u, v) in enumerate(zip(roadmap.src.tolist(), roadmap.dst.tolist(), strict=True)):
+        if (min(u, v), max(u, v)) not in pen:
+            continue
+        cost = float(energy[e].sum())
+        target = float(rule(cost, penalty, floor))
+        if not math.isfinite(target):
+            energy[e] = math.inf
+        elif cost > 0.0:
+            energy[e] *= target / cost
+        else:
+            energy[e] += target / nq
     return replace(roadmap, energy=energy)
 
 
@@ -241,7 +254,13 @@ def run_energy_scenario(
             if hazard.first_path != hazard.final_path:
                 other_paths["cheapest path (too close to a hazard)"] = hazard.first_path
             if hazard.penalised:  # plan on with the offending edges removed/penalised
-                plan_map = penalised_roadmap(roadmap, hazard.penalised, scn.hazard_penalty)
+                floor = getattr(hazard, "penalty_floor", 0.0)
+                plan_map = penalised_roadmap(
+                    roadmap,
+                    hazard.penalised,
+                    scn.hazard_penalty,
+                    floor if floor is not None and math.isfinite(floor) else 0.0,
+                )
         if world.hidden_names():
             run = execute(
                 plan_map,

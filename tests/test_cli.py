@@ -462,6 +462,7 @@ def test_replay_indices_always_end_with_the_last_sample():
 def test_finite_hazard_penalty_reports_unpenalised_energy(tmp_path):
     """With hazard_penalty = 1.2 the re-planned path still takes two penalised edges (each
     1.2 times dearer to the planner); the reported energy is the edges' own E⁺."""
+    from mpd_pin.execution import HazardClearanceWarning, penalised_cost
     from mpd_pin.runner import run_energy_scenario
 
     data = load_scenario_data(builtin_scenarios()["hazard"])
@@ -471,7 +472,8 @@ def test_finite_hazard_penalty_reports_unpenalised_energy(tmp_path):
                                               "center": [0.0, -1.5], "radius": 0.05}]
     data["sensor"] = {"range": 0.01}
     scn = parse_energy_scenario(data)
-    result = run_energy_scenario(scn, tmp_path / "o", show_progress=False, replay=False)
+    with pytest.warns(HazardClearanceWarning):  # the mild penalty leaves the path too close
+        result = run_energy_scenario(scn, tmp_path / "o", show_progress=False, replay=False)
     hz = result["hazard_replanning"]
     assert hz["penalty"] == 1.2 and hz["penalised_edges"] and hz["rounds"] >= 1
     nodes = result["path"]["nodes"]
@@ -484,11 +486,18 @@ def test_finite_hazard_penalty_reports_unpenalised_energy(tmp_path):
     assert result["execution"]["travelled"] == nodes
     drive = scn.drive()
     Q = np.array(result["path"]["configurations"])
-    E = np.zeros(drive.nq)
-    for k in range(len(Q) - 1):
-        E += mp.simulate_edge(drive, Q[k], Q[k + 1], scn.options.duration, scn.options.dt).energy
+    edges = [mp.simulate_edge(drive, Q[k], Q[k + 1], scn.options.duration, scn.options.dt).energy
+             for k in range(len(Q) - 1)]
+    E = np.sum(edges, axis=0)
     np.testing.assert_allclose(result["energy_per_joint"], E, rtol=1e-8)
     np.testing.assert_allclose(result["execution"]["energy_per_joint"], E, rtol=1e-8)
+    # The execution planned on the same penalised costs as the hazard planner.
+    planning_cost = sum(
+        penalised_cost(float(e.sum()), 1.2, hz["penalty_floor"]) if bad else float(e.sum())
+        for e, bad in zip(edges, on_path, strict=True)
+    )
+    assert result["execution"]["initial_cost"] == pytest.approx(planning_cost, rel=1e-8)
+    assert planning_cost > E.sum()
     assert result["execution"]["total_energy"] == pytest.approx(E.sum(), rel=1e-8)
     assert result["verification"]["max_relative_difference"] < 1e-8
     if hz["final_path"] == nodes:
@@ -586,3 +595,27 @@ def test_malformed_urdf(tmp_path, urdf, line):
     expected = line.format(path=tmp_path / "arm.urdf")
     _assert_one_line_error(res, expected)
     assert res.stderr.startswith(expected)
+
+
+def test_penalised_roadmap_matches_the_hazard_planner_rule():
+    """The runner's planning copy costs each penalised edge penalised_cost(cost, penalty,
+    floor) (execution.py's rule, zero-cost edges included), leaves the rest and the
+    original untouched, and keeps per-joint energies proportional."""
+    from mpd_pin.execution import penalised_cost
+    from mpd_pin.roadmap import Roadmap
+    from mpd_pin.runner import penalised_roadmap
+
+    energy = np.array([[1.0, 3.0], [2.0, 2.0], [0.0, 0.0], [0.0, 0.0], [5.0, 1.0], [0.5, 0.5]])
+    src, dst = np.array([0, 1, 1, 2, 2, 3]), np.array([1, 0, 2, 1, 3, 2])
+    rm = Roadmap(nodes=np.zeros((4, 2)), start=0, goal=3, src=src, dst=dst,
+                 durations=np.ones(6), energy=energy.copy(), key="k", timings={})
+    pen = penalised_roadmap(rm, [(1, 0), (1, 2)], 3.0, 10.0)
+    np.testing.assert_array_equal(rm.energy, energy)  # the original is not modified
+    expected = [penalised_cost(c, 3.0, 10.0) for c in energy.sum(axis=1)[:4]]
+    assert expected == [14.0, 14.0, 10.0, 10.0]
+    np.testing.assert_allclose(pen.cost[:4], expected, rtol=1e-15)
+    np.testing.assert_allclose(pen.energy[0], [3.5, 10.5], rtol=1e-15)  # proportional
+    np.testing.assert_allclose(pen.energy[2], [5.0, 5.0], rtol=1e-15)  # zero cost: evenly
+    np.testing.assert_array_equal(pen.energy[4:], energy[4:])
+    inf = penalised_roadmap(rm, [(2, 3)], math.inf, 0.0)
+    assert np.all(np.isinf(inf.cost[4:])) and np.array_equal(inf.cost[:4], rm.cost[:4])

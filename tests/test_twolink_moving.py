@@ -112,3 +112,30 @@ def test_sampled_checker_follows_the_obstacle():
         assert math.isclose(chk.clearance(q, k), z - 0.13, abs_tol=1e-6)
     assert chk.is_free_batch(np.zeros((3, 2)), 0).tolist() == [True] * 3
     assert chk.builds == 11
+
+
+def test_checker_between_samples_sees_what_the_samples_miss():
+    arm = mp.builtin_arm("planar_2link")
+    # A small fast disc crossing link 1 (q = 0: along +x at z = 0) between samples 0 and 1:
+    # centre x = 0.3, z from 0.2 to -0.2 in 0.01 s (40 m/s); at the samples it is 0.2 m away.
+    scene = MovingScene([MovingObstacle("fast", 0.05, straight((0.3, 0.2), (0.3, -0.2), 40.0))])
+    chk = SampledCollisionChecker(arm, scene, margin=0.03)
+    q = np.zeros(2)
+    assert chk.is_free(q, 0) and chk.is_free(q, 1)
+    # Sub-steps j/4: centre z = 0.2 - 0.1 j; j = 2 puts it on the link.
+    assert not chk.is_free_between(q, q, 0, 4)
+    assert chk.is_free_between(q, q, 0, 1)  # samples only: nothing checked in between
+    np.testing.assert_allclose(chk.at_time(0, 1, 4).world["fast"].position, [0.3, 0.0, 0.1],
+                               atol=1e-12)
+    assert chk.at_time(0, 2, 4) is chk.at_time(0, 1, 2)  # one checker per instant
+    # Joints interpolated linearly: from q1 = -0.6 to q1 = 0.6 the link sweeps through z = 0
+    # half-way (j = 2 of 4), when the disc is there too; a static disc off the sweep is missed.
+    q0, q1 = np.array([-0.6, 0.0]), np.array([0.6, 0.0])
+    slow = MovingScene([MovingObstacle("s", 0.05, static((0.45, 0.0)))])
+    chk2 = SampledCollisionChecker(arm, slow, margin=0.03)
+    assert chk2.is_free(q0, 0) and chk2.is_free(q1, 1)
+    assert not chk2.is_free_between(q0, q1, 0, 4)
+    ok = chk2.is_free_between_batch(np.stack([q0, q0]), np.stack([q1, q0]), 0, 4)
+    assert ok.tolist() == [False, True]
+    with pytest.raises(ValueError, match="sub-step"):
+        chk.at_time(0, 4, 4)

@@ -103,12 +103,33 @@ def test_smoother_rejects_colliding_shortcuts(env1_small):
     _, res = env1_small
     sm = res.smoother
     # Only the two ends as knots: a straight cut through the obstacle's sweep, which the
-    # D* motion avoided by returning backward at sample 13.
+    # D* motion avoided by stopping and returning backward (samples 17-32).
     m = sm.motion(knots=np.array([0, sm.K]))
-    assert not m.feasible and m.reason.startswith("collision at sample")
+    assert not m.feasible and m.reason.startswith("collision")
     k = int(m.reason.split()[-1])
-    assert not res.checker.is_free(m.q[k], k)
-    # The same particle through costs(): forbidden (infinite).
+    if m.reason.startswith("collision at sample"):
+        assert not res.checker.is_free(m.q[k], k)
+    else:
+        # It first fails *between* samples k-1 and k, with both earlier samples free: the
+        # sub-step check (joints interpolated, obstacle at the sub-step's time) caught it.
+        assert m.reason == f"collision between samples {k - 1} and {k}"
+        assert all(res.checker.is_free(m.q[j], j) for j in range(k))
+        n = sm.substeps
+        assert n == 4 and not res.checker.is_free_between(m.q[k - 1], m.q[k], k - 1, n)
+        # Independently (plain geometry): at some sub-step a link comes within margin + link
+        # radius of the disc (0.03 + 0.03 m), the cylinder-with-margin collision condition.
+        ob = res.problem.scene.obstacles[0]
+        gaps = []
+        for j in range(1, n):
+            q = m.q[k - 1] + (j / n) * (m.q[k] - m.q[k - 1])
+            c = ob.center((k - 1 + j / n) * res.problem.ts)
+            e, p = res.kin.elbow(q), res.kin.fk(q)
+            d = [np.linalg.norm(c - (a + np.clip(np.dot(c - a, b - a) / np.dot(b - a, b - a),
+                                                 0, 1) * (b - a)))
+                 for a, b in ((np.zeros(2), e), (e, p))]
+            gaps.append(min(d) - ob.radius)
+        assert min(gaps) < 0.06 + 1e-9, gaps
+    # A particle through costs(): infinite exactly when its motion is infeasible.
     x = np.zeros((1, sm.num_via))  # every via point clipped to sample 1
     assert sm.costs(x)[0] == (np.inf if not sm.motion(x[0]).feasible else sm.motion(x[0]).length)
 
@@ -116,7 +137,11 @@ def test_smoother_rejects_colliding_shortcuts(env1_small):
 def test_best_motion_is_free_and_not_longer(env1_small):
     _, res = env1_small
     assert res.motion.length <= res.dstar.length
-    for k, q in enumerate(res.motion.q):
-        assert res.checker.is_free(q, k)
+    q = res.motion.q
+    for k in range(len(q)):
+        assert res.checker.is_free(q[k], k)
+        if k:
+            assert res.checker.is_free_between(q[k - 1], q[k], k - 1, res.problem.substeps)
+    assert np.abs(np.diff(q, axis=0)).max() <= res.problem.joint_step_limit + 1e-12
     if res.pso_improved:
         assert res.motion.length == pytest.approx(res.pso.cost)

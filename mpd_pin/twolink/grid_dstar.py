@@ -9,6 +9,19 @@ so branch switches (elbow up ↔ down) only appear where both branches nearly
 coincide, near the outer circle of the workspace, and stay continuous in joint
 space; the same test keeps q1 from jumping across its ±π limit. The same-cell
 switch (c, up) ↔ (c, down) is an edge too when it passes that test.
+
+How many switches that leaves depends on the step. With the default step of
+the arm's velocity limits (10 rad/s × Ts = 0.1 rad for the built-in arm) the
+two branches are within 0.1 rad only for r > 0.9997 m, and q2 changes too fast
+near the rim (dq2/dr → ∞ at r = l1 + l2) for any grid move to get there: on the
+0.025 m grid of env1/env2 the only branch-changing edges are same-cell
+switches on the cells exactly on the rim, which no other edge reaches. So the
+velocity-limited D* motion never switches the elbow — a task that needs a
+switch has no path and ends in :class:`~mpd_pin.twolink.planner.TrappedError`
+rather than a jump. A larger ``max_joint_step`` (0.5 rad on a 0.05 m grid, say,
+which exceeds the URDF's velocity limits) makes switches reachable near the
+rim, continuous in joint space by the same test (both checked in
+``tests/test_twolink_dstar.py``).
 Edge costs are the end-effector displacement (m): the step for a side move,
 step·√2 for a diagonal one, 0 for a same-cell switch (paper 002 eq. 7 with g
 the path length so far and h the straight-line distance to the goal), plus an

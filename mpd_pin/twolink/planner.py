@@ -2,34 +2,48 @@
 
 Execution of the D* path (paper 002 §5, Fig. 2), one motion sample at a time
 (sample k at t = k·Ts). The arm is at state s_k = (cell, branch), free at t_k.
+A *move* u (sample k) → v (sample k+1) is valid when v is free at k+1 and the
+joints, interpolated linearly from q_u to q_v, are free at the ``substeps − 1``
+inner sub-steps against the obstacles at t = (k + j/substeps)·Ts (same
+collision margin; staying put is a move too, while the obstacles move).
 
 1. The obstacles *of the current sample* block their states (the FCS map of
    sample k); D* (:class:`~mpd_pin.twolink.grid_dstar.GridDStar`) repairs the
    shortest path from s_k to the goal.
 2. Look one sample ahead, at the FCS map of sample k+1:
 
-   * **move** — the next state of the path is free at k+1: go there;
-   * **stop** — it is not (or no path exists in this snapshot) but the current
-     state stays free at k+1: wait one sample;
-   * **return backward** — the current state itself is about to be hit (not
-     free at k+1): retreat to a neighbouring state (one grid move, or a
-     same-cell branch switch, both within ``max_joint_step``) that is free at
-     k+1. Among those, the one that stays free for the most of the next
-     ``lookahead`` samples is taken, preferring the state the arm came from,
-     then the one closer to the goal.
+   * **move** — the move to the next state of the path is valid: go there;
+   * **stop** — it is not (or no path exists in this snapshot) but staying
+     put is: wait one sample;
+   * **return backward** — the current state itself is about to be hit
+     (staying is not valid): retreat to a neighbouring state (one grid move,
+     or a same-cell branch switch, both within ``max_joint_step``) whose move
+     is valid. A retreat goes back: only states whose cell is *not closer to
+     the goal* (straight-line distance) than the current one are candidates;
+     among them the one that stays free for the most of the next
+     ``lookahead`` samples, then the state the arm came from, then the one
+     with the least D* cost to the goal. Only if no such state is free does
+     the arm escape to a neighbour closer to the goal (same ranking); the
+     event then says ``"retreat": false``.
 
    If no neighbour is free at k+1 the arm cannot be saved by stopping or
    retreating: :class:`TrappedError` is raised (nothing colliding is ever
    returned). So is exceeding ``max_samples``.
 
 So every sample of the D* motion is collision-free by construction (states are
-checked against the obstacles of the sample at which the arm occupies them),
-and consecutive samples differ by at most ``max_joint_step`` in every joint.
+checked against the obstacles of the sample at which the arm occupies them,
+and the moves between them at the sub-steps), and consecutive samples differ
+by at most ``max_joint_step`` in every joint.
+
+``max_joint_step`` (rad per sample) defaults to the arm's joint velocity limit
+(URDF ``<limit velocity>``, the smallest over the joints) × Ts — 10 rad/s ×
+0.01 s = 0.1 rad for the built-in arm — so the motion never exceeds the joint
+speed limits; a scenario may override it (``[motion] max_joint_step``).
 
 Then PSO (:mod:`~mpd_pin.twolink.pso`) chooses via points on that motion (the
 swarm starts at random via points, plus one particle with evenly spread ones);
 the executed smoothed motion is the best spline found, re-checked sample by
-sample.
+sample and sub-step by sub-step.
 If PSO finds nothing shorter than the D* motion, the D* motion itself is
 executed (``pso_improved`` is False), so the smoothed path is never longer.
 Path lengths are end-effector polylines through the positions at the motion
@@ -75,11 +89,14 @@ class DynamicProblem:
     ``start``/``goal``: end-effector points (x, z) (m), snapped to the nearest
     grid cell; ``start_branch``: ``"up"``/``"down"``; ``goal_branch``: also
     ``"any"``. ``margin`` (m): clearance the links must keep from every
-    obstacle at every sample (≥ the link radius makes the cylinder links safe
-    as capsules too). ``max_joint_step`` (rad): largest joint change between
-    two samples. ``switch_penalty`` (m): extra D* cost of an elbow-branch switch.
-    ``max_samples``: give up after this many. ``lookahead``:
-    samples looked ahead when choosing where to retreat.
+    obstacle at every sample and sub-step (≥ the link radius makes the
+    cylinder links safe as capsules too). ``max_joint_step`` (rad): largest
+    joint change between two samples; None (default) takes the arm's joint
+    velocity limits × Ts (:attr:`joint_step_limit`). ``substeps``: the moves
+    between samples are checked at ``substeps − 1`` interpolated instants
+    (1: samples only). ``switch_penalty`` (m): extra D* cost of an
+    elbow-branch switch. ``max_samples``: give up after this many.
+    ``lookahead``: samples looked ahead when choosing where to retreat.
     """
 
     arm: Arm
@@ -90,7 +107,8 @@ class DynamicProblem:
     start_branch: str = "up"
     goal_branch: str = "any"
     margin: float = 0.03
-    max_joint_step: float = 0.5
+    max_joint_step: float | None = None
+    substeps: int = 4
     switch_penalty: float = 0.05
     max_samples: int = 500
     lookahead: int = 5
@@ -117,18 +135,47 @@ class DynamicProblem:
                 raise ValueError(f"{name} must be one finite (x, z) point in m")
             setattr(self, name, (float(p[0]), float(p[1])))
         checks = (
-            ("margin", self.margin >= 0), ("max_joint_step", self.max_joint_step > 0),
+            ("margin", self.margin >= 0),
+            ("max_joint_step", self.max_joint_step is None or self.max_joint_step > 0),
+            ("substeps", self.substeps >= 1),
             ("switch_penalty", self.switch_penalty >= 0), ("max_samples", self.max_samples >= 1),
             ("lookahead", self.lookahead >= 1), ("num_via", self.num_via >= 1),
             ("num_threads", self.num_threads >= 1),
         )
         for name, ok in checks:
             value = getattr(self, name)
-            if not ok or not math.isfinite(value):
+            if not ok or (value is not None and not math.isfinite(value)):
                 raise ValueError(f"{name} out of range: {value!r}")
         if self.spline_bc not in ("clamped", "natural", "not-a-knot"):
             raise ValueError(f"spline_bc must be clamped, natural or not-a-knot, got "
                              f"{self.spline_bc!r}")
+        self.joint_step_limit  # noqa: B018 - raises if the arm has no usable velocity limits
+
+    @property
+    def velocity_limits(self) -> np.ndarray:
+        """The arm's joint velocity limits (rad/s), from its URDF."""
+        return np.asarray(self.arm.model.velocityLimit, dtype=float).copy()
+
+    @property
+    def velocity_joint_step(self) -> float | None:
+        """Smallest joint velocity limit × Ts (rad per sample); None without usable limits."""
+        v = self.velocity_limits
+        if v.size == 0 or not np.all(np.isfinite(v)) or not np.all(v > 0):
+            return None
+        return float(v.min()) * self.ts
+
+    @property
+    def joint_step_limit(self) -> float:
+        """The joint step limit in force (rad per sample): ``max_joint_step`` or the derived one."""
+        if self.max_joint_step is not None:
+            return float(self.max_joint_step)
+        step = self.velocity_joint_step
+        if step is None:
+            raise ValueError(
+                f"arm {self.arm.name!r} has no finite, positive joint velocity limits "
+                f"({self.velocity_limits.tolist()}); set max_joint_step"
+            )
+        return step
 
     @property
     def ts(self) -> float:
@@ -242,13 +289,25 @@ def execute_dstar(
     max_samples: int,
     lookahead: int = 5,
     switch_penalty: float = 0.0,
+    substeps: int = 1,
     progress: Callable[[int], None] | None = None,
 ) -> DStarMotion:
-    """Run D* sample by sample with the stop and return-backward cases (module docstring)."""
+    """Run D* sample by sample with the stop and return-backward cases (module docstring).
+
+    ``substeps`` > 1 also checks every move between two samples at its inner
+    sub-steps (:meth:`SampledCollisionChecker.is_free_between`).
+    """
     grid = fcs.grid
+    checker = fcs.checker
     dstar = GridDStar(fcs, start_state, goal_states, fcs.free_states(0),
                       max_joint_step=max_joint_step, switch_penalty=switch_penalty)
     goal_set = set(goal_states)
+    goal_pt = grid.point(fcs.cell_branch(next(iter(goal_set)))[0])
+    qs = fcs.q_states
+
+    def goal_distance(state: int) -> float:
+        return float(np.hypot(*(grid.point(fcs.cell_branch(state)[0]) - goal_pt)))
+
     s = int(start_state)
     states = [s]
     events: list[dict[str, Any]] = []
@@ -258,54 +317,69 @@ def execute_dstar(
         if k >= max_samples:
             raise TrappedError(
                 f"the arm did not reach the goal within {max_samples} motion samples "
-                f"({max_samples * fcs.checker.scene.ts:.2f} s)"
+                f"({max_samples * checker.scene.ts:.2f} s)"
             )
         free_next = fcs.free_states(k + 1)
+
+        def valid(u: int, v: int, k: int = k, free_next: np.ndarray = free_next) -> bool:
+            """Move u (sample k) → v (sample k+1): v free at k+1, free at the sub-steps."""
+            if not free_next[v]:
+                return False
+            return substeps <= 1 or checker.is_free_between(qs[u], qs[v], k, substeps)
+
         try:
             path = dstar.plan_from(s)
             replans += 1
             nxt: int | None = path[1] if len(path) > 1 else None
         except NoPathError:
             nxt = None
-        if nxt is not None and free_next[nxt]:
+        if nxt is not None and valid(s, nxt):
             new = nxt
             c0, b0 = fcs.cell_branch(s)
             c1, b1 = fcs.cell_branch(new)
             if b0 != b1:
                 events.append({"type": "switch", "sample": k + 1,
                                "branch": BRANCHES[b1], "cell": grid.point(c1).tolist()})
-        elif free_next[s]:
+        elif valid(s, s):
             new = s
+            if nxt is None:
+                reason = "no path in this sample"
+            elif free_next[nxt]:
+                reason = "move to the next cell collides between samples"
+            else:
+                reason = "next cell occupied"
             events.append({
                 "type": "stop",
                 "sample": k + 1,
-                "reason": "no path in this sample" if nxt is None else "next cell occupied",
+                "reason": reason,
                 "cell": grid.point(fcs.cell_branch(s)[0]).tolist(),
             })
         else:
-            cands = [v for v in dstar.successors(s) if free_next[v]]
+            cands = [v for v in dstar.successors(s) if valid(s, v)]
             if not cands:
                 p = grid.point(fcs.cell_branch(s)[0])
                 raise TrappedError(
-                    f"at sample {k} (t = {k * fcs.checker.scene.ts:.3f} s) an obstacle is about to "
+                    f"at sample {k} (t = {k * checker.scene.ts:.3f} s) an obstacle is about to "
                     f"hit the arm at ({p[0]:.3f}, {p[1]:.3f}) m and no neighbouring cell is free: "
                     "neither stopping nor returning backward can save it"
                 )
+            d0 = goal_distance(s)
+            back = [v for v in cands if goal_distance(v) >= d0 - 1e-9]
             prev = states[-2] if len(states) > 1 else -1
-            new = max(
-                cands,
-                key=lambda v: (
-                    _survival(fcs, v, k + 1, lookahead),
-                    v == prev,
-                    -dstar.cost_to_goal(v) if math.isfinite(dstar.cost_to_goal(v)) else -1e9,
-                    -v,
-                ),
-            )
+
+            def rank(v: int, k: int = k, prev: int = prev) -> tuple:
+                g = dstar.cost_to_goal(v)
+                return (_survival(fcs, v, k + 1, lookahead), v == prev,
+                        -g if math.isfinite(g) else -math.inf, -v)
+
+            new = max(back or cands, key=rank)
             events.append({
                 "type": "backward",
                 "sample": k + 1,
                 "from": grid.point(fcs.cell_branch(s)[0]).tolist(),
                 "cell": grid.point(fcs.cell_branch(new)[0]).tolist(),
+                "goal_distance": [d0, goal_distance(new)],
+                "retreat": bool(back),
             })
         k += 1
         s = int(new)
@@ -356,10 +430,11 @@ def plan_dynamic(
         fcs,
         start_state,
         goal_states,
-        max_joint_step=problem.max_joint_step,
+        max_joint_step=problem.joint_step_limit,
         max_samples=problem.max_samples,
         lookahead=problem.lookahead,
         switch_penalty=problem.switch_penalty,
+        substeps=problem.substeps,
         progress=(lambda k: progress("dstar", k, None)) if progress else None,
     )
     timings["dstar"] = time.perf_counter() - t0
@@ -384,7 +459,8 @@ def plan_dynamic(
             dmotion.points,
             dmotion.branches,
             num_via=min(problem.num_via, dmotion.num_samples - 2),
-            max_joint_step=problem.max_joint_step,
+            max_joint_step=problem.joint_step_limit,
+            substeps=problem.substeps,
             goal_branches=tuple(fcs.cell_branch(g)[1] for g in goal_states),
             bc_type=problem.spline_bc,
         )

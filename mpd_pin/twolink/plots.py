@@ -83,11 +83,13 @@ def plot_fcs_maps(
     *,
     q: np.ndarray | None = None,
     path: np.ndarray | None = None,
+    pso_path: np.ndarray | None = None,
 ) -> Figure:
     """Rows: the given samples; columns: elbow down, elbow up, both (paper Fig. 5 / 11).
 
     ``q`` (K+1, 2) rad: the arm drawn at each sample; ``path`` (K+1, 2) m: the
-    end-effector path drawn on every map.
+    (D*) end-effector path drawn on every map; ``pso_path`` (m): the smoothed
+    (PSO) path too, dashed, as in the paper's "FCS for the D* path and PSO path".
     """
     samples = list(samples)
     grid = fcs.grid
@@ -112,7 +114,13 @@ def plot_fcs_maps(
             _setup_ax(ax, kin)
             draw_obstacles(ax, scene, m.t, alpha=0.9)
             if path is not None:
-                ax.plot(path[:, 0], path[:, 1], "-", color="k", lw=0.8, alpha=0.6)
+                ax.plot(path[:, 0], path[:, 1], "-", color="k", lw=0.8, alpha=0.6,
+                        label="D* path")
+            if pso_path is not None:
+                ax.plot(pso_path[:, 0], pso_path[:, 1], "--", color="#ff7f0e", lw=1.0,
+                        label="PSO path")
+            if r == 0 and c == 0 and (path is not None or pso_path is not None):
+                ax.legend(loc="lower left", fontsize=6)
             if q is not None and 0 <= k < len(q):
                 draw_arm(ax, kin, q[k], color="k", lw=2.0)
             ax.set_title(f"{titles[c]}, sample {k} (t = {m.t:.2f} s)", fontsize=9)

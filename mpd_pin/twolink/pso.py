@@ -22,10 +22,12 @@ motion sample. Its cost is the end-effector path length (m) — the polyline
 through the positions at the motion samples — and it is infinite (forbidden)
 when any sample is out of reach, needs a joint step larger than
 ``max_joint_step`` (rad), or collides with the obstacles *at that sample's
-time*. The elbow branch follows the D* motion's branch at the same sample
-whenever that keeps the joints continuous (within ``max_joint_step``), and
-otherwise stays on the other one, so a spline that passes a D* branch switch
-a little inside the workspace rim can switch a few samples earlier or later.
+time* — or, between two samples, at one of the ``substeps − 1`` sub-steps
+(joints interpolated linearly, obstacles at the sub-step's time). The elbow
+branch follows the D* motion's branch at the same sample whenever that keeps
+the joints continuous (within ``max_joint_step``), and otherwise stays on the
+other one, so a spline that passes a D* branch switch a little inside the
+workspace rim can switch a few samples earlier or later.
 """
 
 from __future__ import annotations
@@ -159,8 +161,14 @@ class ViaPointSmoother:
     """Cost of via-point selections on a D* motion (module docstring); vectorised over a swarm.
 
     ``points`` (K+1, 2) m and ``branches`` (K+1,) of the D* motion, one row per
-    motion sample; ``checker`` gives the obstacles of each sample.
-    ``bc_type``: CubicSpline end conditions (``"clamped"``: start and end at rest).
+    motion sample; ``checker`` gives the obstacles of each sample (and
+    sub-step: ``substeps``, 1 = samples only).
+    ``bc_type``: CubicSpline end conditions. ``"clamped"`` makes the spline's
+    derivative zero at its two ends (dx/dk = dz/dk = 0 at k = 0 and k = K) —
+    *not* a motion that starts and ends at rest sample by sample: the first
+    and last steps are x(1) − x(0) and x(K) − x(K−1), a whole grid move when
+    a via point sits on sample 1 or K−1 (they are bounded, like every step,
+    by ``max_joint_step``).
     """
 
     def __init__(
@@ -172,6 +180,7 @@ class ViaPointSmoother:
         *,
         num_via: int,
         max_joint_step: float,
+        substeps: int = 1,
         goal_branches: tuple[int, ...] = (0, 1),
         bc_type: str = "clamped",
     ) -> None:
@@ -186,6 +195,9 @@ class ViaPointSmoother:
         if self.num_via < 1:
             raise ValueError(f"num_via must be ≥ 1, got {num_via!r}")
         self.max_joint_step = float(max_joint_step)
+        self.substeps = int(substeps)
+        if self.substeps < 1:
+            raise ValueError(f"substeps must be ≥ 1, got {substeps!r}")
         if bc_type not in ("clamped", "natural", "not-a-knot"):
             raise ValueError(f"bc_type must be clamped, natural or not-a-knot, got {bc_type!r}")
         self.bc_type = bc_type
@@ -277,6 +289,11 @@ class ViaPointSmoother:
                 if not self.checker.is_free(q[0, k], k):
                     reason = f"collision at sample {k}"
                     break
+                if k < self.K and not self.checker.is_free_between(
+                    q[0, k], q[0, k + 1], k, self.substeps
+                ):
+                    reason = f"collision between samples {k} and {k + 1}"
+                    break
         return SmoothedMotion(
             knots=kn,
             points=pts,
@@ -305,7 +322,8 @@ class ViaPointSmoother:
         pts = np.stack([self._spline_points(np.asarray(k)) for k in uniq])  # (U, K+1, 2)
         self.evaluated += len(uniq)
         _, q, ok, _ = self._kinematics(pts)
-        # Collisions at every sample after the first, against the obstacles of that sample.
+        # Collisions at every sample after the first, against the obstacles of that sample,
+        # and at the sub-steps between the previous sample and this one.
         for k in range(1, self.K + 1):
             idx = np.flatnonzero(ok)
             if idx.size == 0:
@@ -313,6 +331,12 @@ class ViaPointSmoother:
             free = self.checker.is_free_batch(q[idx, k], k)
             self.collision_queries += idx.size
             ok[idx[~free]] = False
+            idx = idx[free]
+            if self.substeps > 1 and idx.size:
+                free = self.checker.is_free_between_batch(q[idx, k - 1], q[idx, k], k - 1,
+                                                          self.substeps)
+                self.collision_queries += idx.size * (self.substeps - 1)
+                ok[idx[~free]] = False
         lengths = np.linalg.norm(np.diff(pts, axis=1), axis=2).sum(axis=1)
         vals = np.where(ok, lengths, np.inf)
         for key, v in zip(uniq, vals.tolist(), strict=True):

@@ -4,7 +4,8 @@
 ``"dynamic2link"``). Files written in DIR:
 
 * ``result.json`` — see :func:`run_dynamic_scenario`;
-* ``fcs.png`` — FCS maps (elbow down / up / both) at selected samples (paper Fig. 5 / 11);
+* ``fcs.png`` — FCS maps (elbow down / up / both) at selected samples, with the D* and
+  the PSO paths (paper Fig. 5 / 11);
 * ``paths.png`` — D* vs PSO end-effector paths and the PSO cost curve (Fig. 7 / 13);
 * ``dstar_motion.png``, ``pso_motion.png`` — arm snapshots (Figs. 6, 8 / 12, 14);
 * ``joint_angles.png``, ``joint_changes.png`` — Figs. 9–10 / 15–16;
@@ -25,7 +26,13 @@ from .ik import BRANCHES
 from .planner import DynamicPlanResult, plan_dynamic
 from .scenario import DynamicScenario, parse_dynamic_scenario
 
-__all__ = ["run_dynamic_scenario", "result_dict", "default_fcs_samples", "capsule_clearance"]
+__all__ = [
+    "run_dynamic_scenario",
+    "result_dict",
+    "default_fcs_samples",
+    "capsule_clearance",
+    "peak_joint_speed",
+]
 
 
 def _finite_or_none(x: float) -> float | None:
@@ -78,20 +85,29 @@ def link_radius(res: DynamicPlanResult) -> float:
 
 
 def capsule_clearance(
-    res: DynamicPlanResult, q: np.ndarray, *, link_radius: float, substeps: int = 10
-) -> tuple[float, float]:
-    """Smallest clearance (m) of capsule links (radius ``link_radius``) to the discs.
+    res: DynamicPlanResult, q: np.ndarray, *, link_radius: float, substeps: int = 20
+) -> dict[str, float]:
+    """Clearance (m) of capsule links (radius ``link_radius``) to the discs, plain 2-D geometry.
 
-    A diagnostic in plain 2-D geometry: (at the motion samples, between them),
-    the latter with joint angles interpolated linearly over ``substeps`` steps
-    and the obstacles at the intermediate times. The planner guarantees only
-    the samples (paper 002's motion samples); this shows the margin in between.
+    The motion between two samples is taken as the joints interpolated
+    linearly while the obstacles follow their trajectories. Returns
+    ``{"samples", "between_samples", "certified_between"}``: the smallest
+    clearance at the motion samples; at ``substeps − 1`` instants between each
+    pair of samples; and a lower bound valid at *every* instant in between:
+    over a sub-interval every point of the links moves at most
+    δ_arm = (l1 + l2)|Δq1| + l2|Δq2| and a disc centre at most speed × Δt,
+    and the clearance is 1-Lipschitz in both, so with clearances c_a, c_b at
+    the two ends and L = δ_arm + δ_obs it is at least (c_a + c_b − L)/2 (or
+    min(c_a, c_b) when |c_a − c_b| > L) anywhere in the sub-interval.
+    The planner checks the samples and its own ``substeps``; this is the
+    independent diagnostic in between.
     """
     scene = res.problem.scene
-    if len(scene) == 0:
-        return math.inf, math.inf
+    if len(scene) == 0 or len(q) == 0:
+        return {"samples": math.inf, "between_samples": math.inf, "certified_between": math.inf}
+    n = int(substeps)
     q = np.asarray(q, dtype=float)
-    f = np.arange(substeps) / substeps
+    f = np.arange(n) / n
     qq = (q[:-1, None, :] + f[None, :, None] * (q[1:] - q[:-1])[:, None, :]).reshape(-1, 2)
     qq = np.vstack([qq, q[-1:]])
     t = np.concatenate([(np.arange(len(q) - 1)[:, None] + f[None, :]).ravel(), [len(q) - 1]])
@@ -103,9 +119,28 @@ def capsule_clearance(
     d = np.minimum(
         _segment_distance(c, np.zeros_like(elbow), elbow), _segment_distance(c, elbow, ee)
     )
-    clear = (d - scene.radii[None, :] - link_radius).min(axis=1)
-    between = clear[~at_sample]
-    return float(clear[at_sample].min()), float(between.min()) if between.size else math.inf
+    clear = d - scene.radii[None, :] - link_radius  # (M, n_obs)
+    out = {"samples": float(clear[at_sample].min())}
+    if len(q) < 2:
+        out["between_samples"] = out["certified_between"] = math.inf
+        return out
+    out["between_samples"] = float(clear[~at_sample].min())
+    dq = np.abs(np.diff(qq, axis=0))  # (M-1, 2)
+    d_arm = (res.kin.l1 + res.kin.l2) * dq[:, 0] + res.kin.l2 * dq[:, 1]
+    speeds = np.array([ob.trajectory.speed for ob in scene.obstacles])
+    L = d_arm[:, None] + speeds[None, :] * np.diff(t)[:, None]  # (M-1, n_obs)
+    ca, cb = clear[:-1], clear[1:]
+    bound = np.where(np.abs(ca - cb) <= L, 0.5 * (ca + cb - L), np.minimum(ca, cb))
+    out["certified_between"] = float(bound.min())
+    return out
+
+
+def peak_joint_speed(q: np.ndarray, ts: float) -> list[float]:
+    """Largest |Δq_i| / Ts (rad/s) of each joint over the motion (0 for a single sample)."""
+    q = np.asarray(q, dtype=float)
+    if len(q) < 2:
+        return [0.0] * q.shape[1]
+    return [float(v) for v in np.abs(np.diff(q, axis=0)).max(axis=0) / ts]
 
 
 def result_dict(scn: DynamicScenario, res: DynamicPlanResult, seed: int | None) -> dict[str, Any]:
@@ -131,8 +166,8 @@ def result_dict(scn: DynamicScenario, res: DynamicPlanResult, seed: int | None) 
     ]
     clearances = [res.checker.clearance(mot.q[k], k) for k in range(len(mot.q))]
     r_link = link_radius(res)
-    cap_at, cap_between = capsule_clearance(res, mot.q, link_radius=r_link)
-    dcap_at, dcap_between = capsule_clearance(res, d.q, link_radius=r_link)
+    cap = capsule_clearance(res, mot.q, link_radius=r_link)
+    dcap = capsule_clearance(res, d.q, link_radius=r_link)
     counts = {e: sum(1 for x in d.events if x["type"] == e) for e in ("stop", "backward", "switch")}
     pso = res.pso
     return {
@@ -144,7 +179,18 @@ def result_dict(scn: DynamicScenario, res: DynamicPlanResult, seed: int | None) 
         "sample_time": ts,
         "grid": prob.grid.to_dict(),
         "margin": prob.margin,
-        "max_joint_step": prob.max_joint_step,
+        "max_joint_step": prob.joint_step_limit,
+        "max_joint_step_source": (
+            "arm velocity limits × sample_time" if prob.max_joint_step is None
+            else "scenario [motion] max_joint_step"
+        ),
+        "velocity_limits": prob.velocity_limits.tolist(),
+        "peak_joint_speed": {
+            "note": "max |Δq| / Ts per joint (rad/s), against velocity_limits",
+            "pso": peak_joint_speed(mot.q, ts),
+            "dstar": peak_joint_speed(d.q, ts),
+        },
+        "substeps": prob.substeps,
         "start": res.fcs.grid.point(res.fcs.cell_branch(res.start_state)[0]).tolist(),
         "start_branch": BRANCHES[res.fcs.cell_branch(res.start_state)[1]],
         "goal": res.fcs.grid.point(res.fcs.cell_branch(res.goal_states[0])[0]).tolist(),
@@ -176,12 +222,13 @@ def result_dict(scn: DynamicScenario, res: DynamicPlanResult, seed: int | None) 
         "event_counts": counts,
         "min_clearance": _finite_or_none(float(min(clearances))),
         "capsule_clearance": {
-            "note": f"links as capsules of radius {r_link} m vs the discs (m); 'between' "
-                    "interpolates the joints linearly over 10 steps between samples",
-            "pso_samples": _finite_or_none(cap_at),
-            "pso_between_samples": _finite_or_none(cap_between),
-            "dstar_samples": _finite_or_none(dcap_at),
-            "dstar_between_samples": _finite_or_none(dcap_between),
+            "note": f"links as capsules of radius {r_link} m vs the discs (m), plain 2-D "
+                    "geometry; 'between' interpolates the joints linearly at 19 instants "
+                    "between samples (obstacles at those times); 'certified' bounds the "
+                    "clearance at every instant between samples (run.capsule_clearance)",
+            "substeps": 20,
+            **{f"{name}_{key}": _finite_or_none(val)
+               for name, c in (("pso", cap), ("dstar", dcap)) for key, val in c.items()},
         },
         "dstar": {"replans": d.replans, "edge_updates": d.edge_updates},
         "collision_checkers_built": res.checker.builds,
@@ -208,7 +255,9 @@ def run_dynamic_scenario(
     particle), ``events`` (the D* execution's ``stop`` / ``backward`` /
     ``switch`` events with their ``sample`` index), plus ``dstar_samples``,
     ``min_clearance`` (m, Coal, link cylinders), ``capsule_clearance`` (m, see
-    :func:`capsule_clearance`) and timings (s). ``plots=False`` skips the PNG
+    :func:`capsule_clearance`), ``max_joint_step`` (rad per sample, with its
+    ``max_joint_step_source``), ``velocity_limits`` and ``peak_joint_speed``
+    (rad/s) and timings (s). ``plots=False`` skips the PNG
     figures (they take most of a run's time).
 
     Raises ConfigError/ValueError for bad input and
@@ -262,7 +311,8 @@ def write_plots(scn: DynamicScenario, res: DynamicPlanResult, out_dir: Path) -> 
     fcs_samples = [k for k in (scn.fcs_samples or default_fcs_samples(res)) if 0 <= k <= K]
     snaps = scn.snapshot_samples
     figs = {
-        "fcs.png": plots.plot_fcs_maps(res.fcs, fcs_samples, q=d.q, path=d.points),
+        "fcs.png": plots.plot_fcs_maps(res.fcs, fcs_samples, q=d.q, path=d.points,
+                                       pso_path=mot.points),
         "paths.png": plots.plot_paths(
             kin, scene, d.points, mot.points, res.pso.cost_curve if res.pso else None
         ),

@@ -12,12 +12,16 @@ A scenario is a TOML table (parsed to a dict by the CLI)::
     [grid]                     # end-effector cells, m
     x = [-1.0, 1.0]
     z = [-1.0, 1.0]
-    step = 0.05
+    step = 0.025               # one grid move per sample must fit max_joint_step
 
     [motion]
     sample_time = 0.01         # Ts, s (paper 002)
     margin = 0.03              # m kept between every link and every obstacle
-    max_joint_step = 0.5       # rad per motion sample
+    # max_joint_step = 0.1     # rad per motion sample; default: the arm's smallest joint
+    #                          # velocity limit (URDF <limit velocity>) × sample_time
+    #                          # (10 rad/s × 0.01 s = 0.1 rad for planar_2link). Setting
+    #                          # it overrides the limit (result.json: max_joint_step_source).
+    substeps = 4               # moves between samples checked at 3 interpolated instants
     switch_penalty = 0.05      # m added to D* costs of elbow switches
     max_samples = 400
     lookahead = 5              # samples, for choosing where to return
@@ -218,7 +222,8 @@ def parse_dynamic_scenario(data: dict[str, Any]) -> DynamicScenario:
     m = top.table("motion")
     ts = m.number("sample_time", 0.01, positive=True)
     margin = m.number("margin", 0.03, nonnegative=True)
-    max_joint_step = m.number("max_joint_step", 0.5, positive=True)
+    max_joint_step = m.number("max_joint_step", None, positive=True)
+    substeps = m.integer("substeps", 4, minimum=1)
     switch_penalty = m.number("switch_penalty", 0.05, nonnegative=True)
     max_samples = m.integer("max_samples", 400, minimum=1)
     lookahead = m.integer("lookahead", 5, minimum=1)
@@ -260,23 +265,27 @@ def parse_dynamic_scenario(data: dict[str, Any]) -> DynamicScenario:
     except ValueError as exc:
         raise ConfigError(f"obstacles: {exc}") from None
 
-    problem = DynamicProblem(
-        arm=arm,
-        scene=scene,
-        grid=grid,
-        start=start,
-        goal=goal,
-        start_branch=start_branch,
-        goal_branch=goal_branch,
-        margin=margin,
-        max_joint_step=max_joint_step,
-        switch_penalty=switch_penalty,
-        max_samples=max_samples,
-        lookahead=lookahead,
-        pso=PSOOptions(particles=particles, iterations=iterations, c1=c1, c2=c2, w=w, k=k),
-        num_via=via,
-        spline_bc=spline_bc,
-    )
+    try:
+        problem = DynamicProblem(
+            arm=arm,
+            scene=scene,
+            grid=grid,
+            start=start,
+            goal=goal,
+            start_branch=start_branch,
+            goal_branch=goal_branch,
+            margin=margin,
+            max_joint_step=max_joint_step,
+            substeps=substeps,
+            switch_penalty=switch_penalty,
+            max_samples=max_samples,
+            lookahead=lookahead,
+            pso=PSOOptions(particles=particles, iterations=iterations, c1=c1, c2=c2, w=w, k=k),
+            num_via=via,
+            spline_bc=spline_bc,
+        )
+    except ValueError as exc:  # e.g. no velocity limits to derive max_joint_step from
+        raise ConfigError(f"motion: {exc}") from None
     return DynamicScenario(
         name=name,
         description=description,

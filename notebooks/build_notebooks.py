@@ -1084,7 +1084,9 @@ NB_TWOLINK = [
         `plan_dynamic` computes the FCS map of each sample as it needs it, runs D\* from the
         goal on the snapshot of the current sample and looks one sample ahead: move if the
         next cell will be free, **stop** if only the current one will be, **return backward**
-        to a free neighbour if the current cell is about to be hit.
+        to a free neighbour not closer to the goal if the current cell is about to be hit.
+        Each joint moves at most its URDF velocity limit × Ts per sample (10 rad/s × 0.01 s =
+        0.1 rad), and every move is also checked at instants between the samples.
         """
     ),
     code(
@@ -1111,16 +1113,21 @@ NB_TWOLINK = [
     ),
     code(
         """
-        samples = [0, 10, 29, 33, 45]
+        from mpd_pin.twolink.run import default_fcs_samples
+
+        samples = scn.fcs_samples or default_fcs_samples(res)  # start, first events, end
         for k in samples:
             print(k, res.fcs.map_at(k).counts())
-        plots.plot_fcs_maps(res.fcs, samples, q=d.q, path=d.points)
+        plots.plot_fcs_maps(res.fcs, samples, q=d.q, path=d.points, pso_path=res.motion.points)
         """
     ),
     md("## The D\\* motion (paper Fig. 12), stop / return-backward samples marked"),
     code(
         """
-        plots.plot_arm_snapshots(kin, prob.scene, d.q, [0, 10, 20, 28, 29, 31, 33, 40, 45],
+        K = d.num_samples - 1
+        events = sorted({e["sample"] for e in d.events if e["type"] in ("stop", "backward")})
+        picks = sorted(set(np.linspace(0, K, 7).round().astype(int)) | set(events[:4]))
+        plots.plot_arm_snapshots(kin, prob.scene, d.q, picks,
                                  points=d.points, events=d.events, title="D* motion")
         """
     ),
@@ -1133,7 +1140,9 @@ NB_TWOLINK = [
     md("## The optimised motion (Fig. 14), its joint angles (Fig. 15) and their changes (Fig. 16)"),
     code(
         """
-        plots.plot_arm_snapshots(kin, prob.scene, res.motion.q, [0, 8, 16, 24, 30, 36, 40, 45],
+        Km = len(res.motion.q) - 1
+        plots.plot_arm_snapshots(kin, prob.scene, res.motion.q,
+                                 np.linspace(0, Km, 8).round().astype(int).tolist(),
                                  points=res.motion.points, title="D* based on PSO motion")
         """
     ),
@@ -1164,6 +1173,9 @@ NB_TWOLINK = [
         print(f"smallest capsule-to-disc clearance over {len(res.motion.q)} samples: "
               f"{worst * 1000:.1f} mm")
         assert worst > 0
+        speed = np.abs(np.diff(res.motion.q, axis=0)).max(axis=0) / prob.ts
+        print("peak joint speed (rad/s):", speed.round(2), "limit:", prob.arm.model.velocityLimit)
+        assert np.all(speed <= prob.arm.model.velocityLimit + 1e-9)
         assert np.allclose(kin.fk(res.motion.q[-1]), d.points[-1])  # the goal is reached
         """
     ),

@@ -304,70 +304,94 @@ def _pool(drive: Drive, threads: int) -> pin.ModelPool:
 
 @np.errstate(over="ignore", invalid="ignore")  # divergence is detected and reported below
 def _integrate_batch(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: float, N: int, threads: int):
-    """RK4 on K edges sharing duration T and N steps; returns (E⁺, E), each (K, nq)."""
+    """RK4 on K edges sharing duration T and N steps; returns (E⁺, E), each (K, nq).
+
+    The state of all edges is one preallocated array X = [q, q̇, i, E⁺, E] of shape
+    (5, K, nq) (each row block C-contiguous, so its transpose is the (nq, K)
+    Fortran array Pinocchio wants); the stage derivatives are written in place
+    and the accelerations straight into them by ``abaInParallel``. The reference
+    part of the voltage, W = V_ff + Kp q_ref + Kd q̇_ref, is tabulated on the
+    half-step grid once, so a stage computes V = sat(W − Kp q − Kd q̇).
+    """
     K, nq = Q0.shape
     h = T / N
     DQ = Q1 - Q0
     half = np.arange(2 * N + 1) / (2 * N)
     s, sd, _, _ = quintic(half, T)
+    kp, kd, vmax = drive.kp_vec, drive.kd_vec, drive.v_max
+    pool = _pool(drive, threads)
     if drive.feedforward:
-        Vff, i_ff = _feedforward_batch(drive, Q0, DQ, half, T)
+        W, i_ff = _feedforward_batch(drive, Q0, DQ, half, T)  # W holds V_ff: (2N+1, K, nq)
         i0 = i_ff[0].copy()  # τ_ff(0) = G(q0): the holding current
+        del i_ff
     else:
-        Vff = None
+        W = np.zeros((half.size, K, nq))
         G = pin.rneaInParallel(
-            threads,
-            _pool(drive, threads),
-            Q0.T,
-            np.zeros((nq, K), order="F"),
-            np.zeros((nq, K), order="F"),
+            threads, pool, Q0.T, np.zeros((nq, K), order="F"), np.zeros((nq, K), order="F")
         )
         i0 = np.ascontiguousarray(np.asarray(G).T) / drive.torque_per_amp
-    pool = _pool(drive, threads)
-    kp, kd, vmax = drive.kp_vec, drive.kd_vec, drive.v_max
-    Rm, invL, ktn, ken, damp = (
-        drive.R,
-        1.0 / drive.L,
-        drive.torque_per_amp,
-        drive.emf_per_rad_s,
-        drive.damping,
+    W += kp * (Q0[None] + DQ[None] * s[:, None, None])
+    W += kd * (DQ[None] * sd[:, None, None])
+    invL = 1.0 / drive.L
+    r_l, ke_l, ktn, damp = drive.R * invL, drive.emf_per_rad_s * invL, drive.torque_per_amp, (
+        drive.damping
     )
     saturate = drive.saturated
-    # States are (K, nq) C-ordered: their transposes are the (nq, K) Fortran arrays Pinocchio wants.
-    q = Q0.copy()
-    v = np.zeros((K, nq))
-    i = i0
-    Ep = np.zeros((K, nq))
-    En = np.zeros((K, nq))
-    acc = np.empty((K, nq))
 
-    def stage(j, q, v, i):
-        V = kp * (Q0 + DQ * s[j] - q) + kd * (DQ * sd[j] - v)
-        if Vff is not None:
-            V += Vff[j]
+    X = np.zeros((5, K, nq))
+    X[0] = Q0
+    X[2] = i0
+    Xs = np.zeros_like(X)
+    k1, k2, k3, k4 = (np.empty_like(X) for _ in range(4))
+    V = np.empty((K, nq))
+    trq = np.empty((K, nq))
+    tmp = np.empty((K, nq))
+
+    def stage(j: int, x: np.ndarray, out: np.ndarray) -> None:
+        q, v, i = x[0], x[1], x[2]
+        np.multiply(q, kp, out=V)
+        np.subtract(W[j], V, out=V)
+        np.multiply(v, kd, out=tmp)
+        np.subtract(V, tmp, out=V)
         if saturate:
             np.clip(V, -vmax, vmax, out=V)
-        trq = ktn * i - damp * v
-        pin.abaInParallel(threads, pool, q.T, v.T, trq.T, acc.T)
-        di = (V - Rm * i - ken * v) * invL
-        P = V * i
-        return v, acc.copy(), di, np.maximum(P, 0.0), P
+        np.multiply(i, ktn, out=trq)
+        np.multiply(v, damp, out=tmp)
+        np.subtract(trq, tmp, out=trq)
+        pin.abaInParallel(threads, pool, q.T, v.T, trq.T, out[1].T)
+        np.copyto(out[0], v)
+        di = out[2]
+        np.multiply(V, invL, out=di)  # di/dt = (V − R i − n Ke q̇) / L
+        np.multiply(i, r_l, out=tmp)
+        di -= tmp
+        np.multiply(v, ke_l, out=tmp)
+        di -= tmp
+        np.multiply(V, i, out=out[4])
+        np.maximum(out[4], 0.0, out=out[3])
 
+    xs, x3 = Xs[:3], X[:3]
+    w = h / 6.0
     for n in range(N):
         j = 2 * n
-        k1 = stage(j, q, v, i)
-        k2 = stage(j + 1, q + 0.5 * h * k1[0], v + 0.5 * h * k1[1], i + 0.5 * h * k1[2])
-        k3 = stage(j + 1, q + 0.5 * h * k2[0], v + 0.5 * h * k2[1], i + 0.5 * h * k2[2])
-        k4 = stage(j + 2, q + h * k3[0], v + h * k3[1], i + h * k3[2])
-        w = h / 6.0
-        q = q + w * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0])
-        v = v + w * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
-        i = i + w * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2])
-        Ep = Ep + w * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3])
-        En = En + w * (k1[4] + 2.0 * k2[4] + 2.0 * k3[4] + k4[4])
-    if not (np.all(np.isfinite(Ep)) and np.all(np.isfinite(q))):
+        stage(j, X, k1)
+        np.multiply(k1[:3], 0.5 * h, out=xs)
+        xs += x3
+        stage(j + 1, Xs, k2)
+        np.multiply(k2[:3], 0.5 * h, out=xs)
+        xs += x3
+        stage(j + 1, Xs, k3)
+        np.multiply(k3[:3], h, out=xs)
+        xs += x3
+        stage(j + 2, Xs, k4)
+        k2 += k3
+        k2 *= 2.0
+        k2 += k1
+        k2 += k4
+        k2 *= w
+        X += k2
+    if not (np.all(np.isfinite(X[3])) and np.all(np.isfinite(X[0]))):
         raise ValueError("integration diverged on some edges; reduce dt or the gains")
-    return Ep, En
+    return X[3].copy(), X[4].copy()
 
 
 def edge_energies(

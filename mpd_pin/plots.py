@@ -36,6 +36,18 @@ HAZARD_COLOR = "#d1495b"
 HIDDEN_COLOR = "#7b2cbf"
 
 
+def _drawn_items(world: World | None, show_hidden: bool):
+    """(item, its shape, hidden now, colour) for each obstacle/hazard to draw."""
+    for item in world or ():
+        hidden = not world.is_known(item.name)
+        if hidden and not show_hidden:
+            continue
+        if isinstance(item, Hazard):
+            yield item, item.shape, hidden, HAZARD_COLOR
+        else:
+            yield item, item, hidden, HIDDEN_COLOR if item.hidden else OBSTACLE_COLOR
+
+
 def draw_world_xz(ax, world: World | None, *, show_hidden: bool = True) -> list:
     """Draw obstacles and hazards as their cross-sections with the plane y = 0.
 
@@ -45,22 +57,10 @@ def draw_world_xz(ax, world: World | None, *, show_hidden: bool = True) -> list:
     from matplotlib.patches import Polygon as PolygonPatch
 
     patches = []
-    if world is None:
-        return patches
-    for item in world:
-        hidden = not world.is_known(item.name)
-        if hidden and not show_hidden:
-            continue
-        shape = item.shape if isinstance(item, Hazard) else item
+    for item, shape, hidden, color in _drawn_items(world, show_hidden):
         section = shape.section_xz()
         if section is None:
             continue
-        if isinstance(item, Hazard):
-            color = HAZARD_COLOR
-        elif item.hidden:
-            color = HIDDEN_COLOR
-        else:
-            color = OBSTACLE_COLOR
         patch = PolygonPatch(
             section,
             closed=True,
@@ -143,19 +143,13 @@ def draw_world_3d(ax, world: World | None, *, show_hidden: bool = True) -> list:
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     out = []
-    if world is None:
-        return out
-    for item in world:
-        hidden = not world.is_known(item.name)
-        if hidden and not show_hidden:
-            continue
-        shape = item.shape if isinstance(item, Hazard) else item
+    for item, shape, hidden, color in _drawn_items(world, show_hidden):
         if isinstance(item, Hazard):
-            color, alpha = HAZARD_COLOR, 0.25
+            alpha = 0.25
         elif item.hidden:
-            color, alpha = HIDDEN_COLOR, 0.25 if hidden else 0.6
+            alpha = 0.25 if hidden else 0.6
         else:
-            color, alpha = OBSTACLE_COLOR, 0.55
+            alpha = 0.55
         width = {Sphere: 0.0, Cylinder: 0.2}.get(type(shape), 0.6)  # curved: faint facets
         coll = Poly3DCollection(
             shape_faces(shape),

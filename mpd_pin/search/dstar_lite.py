@@ -248,12 +248,12 @@ class _DStarLiteCore(Planner):
         """
         self._sync_start()
         gr = self.graph
-        gr.set_cost(u, v, cost)  # validates
+        k = gr._set_cost(u, v, cost)  # validates
         u = int(u)
         v = int(v)
         if u == self.goal:
             return
-        c = gr._scost[gr._edge_id(u, v)]
+        c = gr._scost[k]
         t = c + self._g[v]
         nh = self._gh[v] + 1
         r = self._rhs[u]

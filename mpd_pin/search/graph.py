@@ -250,10 +250,15 @@ class Graph:
 
         Planners holding this graph are *not* notified: use ``planner.update_edge``.
         """
+        self._set_cost(u, v, cost)
+
+    def _set_cost(self, u: int, v: int, cost: float) -> int:
+        """:meth:`set_cost`, returning the edge's index in the successor arrays."""
         k = self._edge_id(u, v)
         c = _check_cost(cost, f"edge {u} -> {v}")
         self._scost[k] = c
         self._pcost[self._e2p[k]] = c
+        return k
 
     def to_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Current ``(src, dst, cost)`` arrays, one row per distinct edge, sorted by tail."""

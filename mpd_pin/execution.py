@@ -276,6 +276,7 @@ class HazardResult:
             "final_total_energy": float(np.sum(self.final_energy)),
             "final_margin": float(self.final_margin),
             "satisfied": bool(self.satisfied),
+            "penalty": float(self.penalty),
             "penalty_floor": (
                 float(self.penalty_floor) if math.isfinite(self.penalty_floor) else None
             ),

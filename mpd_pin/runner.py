@@ -26,7 +26,7 @@ import numpy as np
 
 from .collision import CollisionChecker, edge_configurations
 from .energy import simulate_edge
-from .execution import execute, plan_avoiding_hazards
+from .execution import execute, penalised_cost, plan_avoiding_hazards
 from .roadmap import EnergyCost, Roadmap, build_roadmap
 from .scenario import EnergyScenario
 from .search import AStar, Dijkstra, DStarLite, MPDStarLite
@@ -122,14 +122,6 @@ def penalised_roadmap(roadmap: Roadmap, pairs, penalty: float, floor: float = 0.
     cost: ``penalised_cost(cost, penalty, floor)`` (∞ removes them). Each such edge's
     per-joint energies are scaled (or, for a zero-cost edge, raised evenly) so that their
     sum is the penalised cost. Only for planning: report energies from the original."""
-    from . import execution
-
-    rule = getattr(execution, "penalised_cost", None)
-    if rule is None:  # an execution module without the additive floor: the product alone
-
-        def rule(cost, penalty, floor):
-            return cost * penalty if math.isfinite(penalty) else math.inf
-
     pen = {(min(u, v), max(u, v)) for u, v in pairs}
     energy = np.array(roadmap.energy, dtype=float, copy=True)
     nq = energy.shape[1]
@@ -137,7 +129,7 @@ def penalised_roadmap(roadmap: Roadmap, pairs, penalty: float, floor: float = 0.
         if (min(u, v), max(u, v)) not in pen:
             continue
         cost = float(energy[e].sum())
-        target = float(rule(cost, penalty, floor))
+        target = float(penalised_cost(cost, penalty, floor))
         if not math.isfinite(target):
             energy[e] = math.inf
         elif cost > 0.0:
@@ -247,19 +239,11 @@ def run_energy_scenario(
                 planner=planner_cls,
             )
             result["hazard_replanning"] = hazard.to_dict()
-            result["hazard_replanning"]["penalty"] = scn.hazard_penalty
-            result["hazard_replanning"]["satisfied"] = bool(
-                getattr(hazard, "satisfied", hazard.final_margin >= 0.0)
-            )
             if hazard.first_path != hazard.final_path:
                 other_paths["cheapest path (too close to a hazard)"] = hazard.first_path
             if hazard.penalised:  # plan on with the offending edges removed/penalised
-                floor = getattr(hazard, "penalty_floor", 0.0)
                 plan_map = penalised_roadmap(
-                    roadmap,
-                    hazard.penalised,
-                    scn.hazard_penalty,
-                    floor if floor is not None and math.isfinite(floor) else 0.0,
+                    roadmap, hazard.penalised, hazard.penalty, hazard.penalty_floor
                 )
         if world.hidden_names():
             run = execute(
@@ -282,7 +266,7 @@ def run_energy_scenario(
                 "expansions": run.initial_expansions,
             }
         else:
-            p = planner_cls(roadmap.graph(), roadmap.start, roadmap.goal)
+            p = planner_cls(plan_map.graph(), roadmap.start, roadmap.goal)
             ts = time.perf_counter()
             plan = p.plan()
             result["search"] = {

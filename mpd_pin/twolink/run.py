@@ -84,8 +84,12 @@ def link_radius(res: DynamicPlanResult) -> float:
     return max(radii, default=0.0)
 
 
+#: Sub-intervals per sample interval of the independent capsule diagnostic in result.json.
+CAPSULE_SUBSTEPS = 20
+
+
 def capsule_clearance(
-    res: DynamicPlanResult, q: np.ndarray, *, link_radius: float, substeps: int = 20
+    res: DynamicPlanResult, q: np.ndarray, *, link_radius: float, substeps: int = CAPSULE_SUBSTEPS
 ) -> dict[str, float]:
     """Clearance (m) of capsule links (radius ``link_radius``) to the discs, plain 2-D geometry.
 
@@ -223,10 +227,11 @@ def result_dict(scn: DynamicScenario, res: DynamicPlanResult, seed: int | None) 
         "min_clearance": _finite_or_none(float(min(clearances))),
         "capsule_clearance": {
             "note": f"links as capsules of radius {r_link} m vs the discs (m), plain 2-D "
-                    "geometry; 'between' interpolates the joints linearly at 19 instants "
-                    "between samples (obstacles at those times); 'certified' bounds the "
-                    "clearance at every instant between samples (run.capsule_clearance)",
-            "substeps": 20,
+                    f"geometry; 'between' interpolates the joints linearly at "
+                    f"{CAPSULE_SUBSTEPS - 1} instants between samples (obstacles at those "
+                    "times); 'certified' bounds the clearance at every instant between "
+                    "samples (run.capsule_clearance)",
+            "substeps": CAPSULE_SUBSTEPS,
             **{f"{name}_{key}": _finite_or_none(val)
                for name, c in (("pso", cap), ("dstar", dcap)) for key, val in c.items()},
         },

@@ -467,10 +467,14 @@ def test_search_runs_without_loading_pinocchio_or_coal() -> None:
         "assert not bad, bad\n"
         "print('ok')\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=False
-    )
-    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
+    def run_ok(source: str) -> None:
+        out = subprocess.run(
+            [sys.executable, "-c", source], capture_output=True, text=True, timeout=120,
+            check=False,
+        )
+        assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
+
+    run_ok(code)
     # The lazy top-level names still resolve (and then do load Pinocchio).
     code2 = (
         "import sys\n"
@@ -486,7 +490,4 @@ def test_search_runs_without_loading_pinocchio_or_coal() -> None:
         "except AttributeError:\n"
         "    print('ok')\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code2], capture_output=True, text=True, timeout=120, check=False
-    )
-    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
+    run_ok(code2)

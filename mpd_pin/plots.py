@@ -133,6 +133,14 @@ def shape_faces(shape, n: int = 24) -> list[np.ndarray]:
     return [f @ R.T + p for f in faces]
 
 
+def _uniform_faces(faces: list[np.ndarray]) -> np.ndarray:
+    """Faces as one (F, k, 3) array, shorter ones padded by repeating their last vertex
+    (the same polygon). Matplotlib 3.11 pads a ragged list with ``np.empty`` and
+    autoscales on the padding, which intermittently gives NaN/inf axis limits."""
+    k = max(len(f) for f in faces)
+    return np.stack([np.concatenate([f, np.repeat(f[-1:], k - len(f), axis=0)]) for f in faces])
+
+
 def draw_world_3d(ax, world: World | None, *, show_hidden: bool = True) -> list:
     """Draw obstacles and hazards as shaded solids on a 3-D axes (``projection="3d"``).
 
@@ -152,7 +160,7 @@ def draw_world_3d(ax, world: World | None, *, show_hidden: bool = True) -> list:
             alpha = 0.55
         width = {Sphere: 0.0, Cylinder: 0.2}.get(type(shape), 0.6)  # curved: faint facets
         coll = Poly3DCollection(
-            shape_faces(shape),
+            _uniform_faces(shape_faces(shape)),
             facecolors=color,
             edgecolors="black" if width else "none",
             linewidths=width,

@@ -527,6 +527,13 @@ def test_plot_3d_draws_obstacles_as_solids():
     solids = {c.get_gid(): c for c in ax.collections if isinstance(c, Poly3DCollection)}
     assert set(solids) == {"tilted", "can", "ball", "wedge", "zone"}
     assert not [c for c in ax.collections if not isinstance(c, Poly3DCollection)]  # no dots
+    # What matplotlib holds (and autoscales on) is only the shapes' own vertices: a ragged
+    # face list would leave np.empty padding there (matplotlib 3.11), seen as inf limits.
+    for shape in (box, can, ball, wedge, zone):
+        held = solids[shape.name]._faces.reshape(-1, 3)
+        assert np.all(np.isfinite(held))
+        surface = {tuple(np.round(v, 12)) for v in np.concatenate(shape_faces(shape))}
+        assert {tuple(np.round(v, 12)) for v in held} == surface
     plt.close(fig)
 
     def local(shape, P):

@@ -4,7 +4,7 @@ Prints, measured in this run, for the Panda (fingers locked) and the planar
 3-link arm on a batch of K edges × (2N+1) points along quintic references
 (default 1000 × 401 = 401 000 configurations):
 
-* seconds per configuration of ``mpd_pin.batch_dynamics.rnea_with_derivative``
+* seconds per configuration of ``mpd_pin.dynamics.batch.rnea_with_derivative``
   (τ and τ̇; with preallocated outputs, allocating them, with 2 threads, and
   per chunk size for the Panda),
 * of ``pin.rneaInParallel`` and ``pin.abaInParallel`` (τ only / q̈ only, 2 threads),
@@ -29,7 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 import mpd_pin as mp
-from mpd_pin.batch_dynamics import DEFAULT_CHUNK, BatchRneaDerivative, rnea_with_derivative
+from mpd_pin.dynamics.batch import DEFAULT_CHUNK, BatchRneaDerivative, rnea_with_derivative
 
 THREADS = 2
 

@@ -16,7 +16,7 @@ import numpy as np
 
 import mpd_pin as mp
 from mpd_pin.collision import CollisionChecker
-from mpd_pin.roadmap import EnergyCost, RoadmapOptions, build_roadmap
+from mpd_pin.planning.roadmap import EnergyCost, RoadmapOptions, build_roadmap
 from mpd_pin.world import Box, Cylinder, World
 
 

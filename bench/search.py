@@ -359,7 +359,7 @@ def energy_roadmap(num_total: int, seed: int = 0):
     """
     import mpd_pin as mp
     from mpd_pin.collision import CollisionChecker
-    from mpd_pin.roadmap import EnergyCost, RoadmapOptions, build_roadmap
+    from mpd_pin.planning.roadmap import EnergyCost, RoadmapOptions, build_roadmap
     from mpd_pin.world import Box, World
 
     arm = mp.builtin_arm("planar_3link")

@@ -333,10 +333,10 @@ NB02 = [
 
         from mpd_pin import NoPathError
         from mpd_pin.collision import CollisionChecker
-        from mpd_pin.plots import plot_arm_path, plot_cumulative_energy
-        from mpd_pin.roadmap import EnergyCost, build_roadmap
-        from mpd_pin.runner import simulate_path
-        from mpd_pin.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
+        from mpd_pin.viz.plots import plot_arm_path, plot_cumulative_energy
+        from mpd_pin.planning.roadmap import EnergyCost, build_roadmap
+        from mpd_pin.app.runner import simulate_path
+        from mpd_pin.app.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
         from mpd_pin.search import MPDStarLite
 
         NUM_NODES = 60  # random roadmap nodes per case (the scenario files use 150–250)
@@ -493,7 +493,7 @@ NB03 = [
         (Fig. 17, scenario `hazard`): a path that passes closer to a hot "No Enter" zone than
         its clearance is re-planned without the offending edges.
 
-        The motion is shown inline as a self-contained meshcat page (`mpd_pin.replay.write_replay`
+        The motion is shown inline as a self-contained meshcat page (`mpd_pin.viz.replay.write_replay`
         runs a private meshcat server only while it records, and stops it before returning).
         Roadmaps are smaller than the scenario files ask for, to run in seconds.
         """
@@ -512,12 +512,12 @@ NB03 = [
 
         from mpd_pin import NoPathError
         from mpd_pin.collision import CollisionChecker
-        from mpd_pin.execution import execute, plan_avoiding_hazards
-        from mpd_pin.plots import arm_points, plot_arm_path, plot_cumulative_energy
-        from mpd_pin.replay import write_replay
-        from mpd_pin.roadmap import EnergyCost, build_roadmap
-        from mpd_pin.runner import replay_indices, simulate_path, straight_line_configurations
-        from mpd_pin.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
+        from mpd_pin.planning.execution import execute, plan_avoiding_hazards
+        from mpd_pin.viz.plots import arm_points, plot_arm_path, plot_cumulative_energy
+        from mpd_pin.viz.replay import write_replay
+        from mpd_pin.planning.roadmap import EnergyCost, build_roadmap
+        from mpd_pin.app.runner import replay_indices, simulate_path, straight_line_configurations
+        from mpd_pin.app.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
 
         NUM_NODES = 80  # random roadmap nodes for the replanning runs (the scenario file: 150)
         HAZARD_NUM_NODES = 120  # for the hazard run (with 80 its seed has no path at all)
@@ -810,7 +810,7 @@ NB04 = [
 
         import mpd_pin as mp
         from mpd_pin.collision import CollisionChecker
-        from mpd_pin.roadmap import EnergyCost, RoadmapOptions, build_roadmap
+        from mpd_pin.planning.roadmap import EnergyCost, RoadmapOptions, build_roadmap
         from mpd_pin.search import AStar, Dijkstra, DStarLite, MPDStarLite
         from mpd_pin.world import Box, World
 

@@ -1,8 +1,8 @@
-"""Regenerate robots/*.urdf from mpd_pin.robots.BUILTIN_ARMS (run from the repository root)."""
+"""Regenerate robots/*.urdf from mpd_pin.arm.builtin.BUILTIN_ARMS (run from the repository root)."""
 
 from pathlib import Path
 
-from mpd_pin.robots import BUILTIN_ARMS
+from mpd_pin.arm.builtin import BUILTIN_ARMS
 
 out = Path(__file__).resolve().parent.parent / "robots"
 out.mkdir(exist_ok=True)

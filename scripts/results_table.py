@@ -27,7 +27,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from mpd_pin.scenario import builtin_scenarios, load_scenario_data
+from mpd_pin.app.scenario import builtin_scenarios, load_scenario_data
 
 
 def _child_cpu() -> float:

@@ -6,7 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from mpd_pin.batch_dynamics import BatchRneaDerivative, _sincos, rnea_with_derivative
+from mpd_pin.dynamics.batch import BatchRneaDerivative, _sincos, rnea_with_derivative
 
 N_SAMPLES = 250
 RTOL = 1e-10

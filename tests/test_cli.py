@@ -13,9 +13,9 @@ import pytest
 from replay_helpers import animation_clips, decode_commands, screenshots, track
 
 import mpd_pin as mp
-from mpd_pin import replay as rp
+from mpd_pin.app.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
 from mpd_pin.collision import CollisionChecker
-from mpd_pin.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
+from mpd_pin.viz import replay as rp
 from mpd_pin.world import World
 
 ENERGY_SCENARIOS = [n for n, p in builtin_scenarios().items()
@@ -425,10 +425,10 @@ def _fail_with(exc):
     ],
 )
 def test_unexpected_exceptions_are_one_line(tmp_path, monkeypatch, capsys, exc, code, line):
-    import mpd_pin.runner
-    from mpd_pin.cli import main
+    import mpd_pin.app.runner
+    from mpd_pin.app.cli import main
 
-    monkeypatch.setattr(mpd_pin.runner, "run_energy_scenario", _fail_with(exc))
+    monkeypatch.setattr(mpd_pin.app.runner, "run_energy_scenario", _fail_with(exc))
     status = main(["run", str(_write(tmp_path, GOOD)), "--out", str(tmp_path / "o"), "--quiet"])
     captured = capsys.readouterr()
     assert status == code
@@ -437,7 +437,7 @@ def test_unexpected_exceptions_are_one_line(tmp_path, monkeypatch, capsys, exc, 
 
 
 def test_replay_indices_always_end_with_the_last_sample():
-    from mpd_pin.runner import replay_indices
+    from mpd_pin.app.runner import replay_indices
 
     assert replay_indices(1).tolist() == [0]
     assert replay_indices(2).tolist() == [0, 1]
@@ -462,8 +462,8 @@ def test_replay_indices_always_end_with_the_last_sample():
 def test_finite_hazard_penalty_reports_unpenalised_energy(tmp_path):
     """With hazard_penalty = 1.2 the re-planned path still takes two penalised edges (each
     1.2 times dearer to the planner); the reported energy is the edges' own E⁺."""
-    from mpd_pin.execution import HazardClearanceWarning, penalised_cost
-    from mpd_pin.runner import run_energy_scenario
+    from mpd_pin.app.runner import run_energy_scenario
+    from mpd_pin.planning.execution import HazardClearanceWarning, penalised_cost
 
     data = load_scenario_data(builtin_scenarios()["hazard"])
     data["planner"] = {"hazard_penalty": 1.2}
@@ -510,7 +510,7 @@ def test_plot_3d_draws_obstacles_as_solids():
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    from mpd_pin.plots import plot_arm_path, shape_faces
+    from mpd_pin.viz.plots import plot_arm_path, shape_faces
     from mpd_pin.world import Box, Cylinder, Hazard, Polygon, Sphere
 
     arm = mp.Arm.from_example_robot_data("panda")
@@ -561,7 +561,7 @@ def test_plot_3d_draws_obstacles_as_solids():
 
 
 def test_goal_in_collision(tmp_path):
-    from mpd_pin.plots import arm_points
+    from mpd_pin.viz.plots import arm_points
 
     arm = mp.builtin_arm("planar_2link")
     tip = arm_points(arm, np.array([1.2, -0.4]))[-1]  # the goal's end-effector position
@@ -608,9 +608,9 @@ def test_penalised_roadmap_matches_the_hazard_planner_rule():
     """The runner's planning copy costs each penalised edge penalised_cost(cost, penalty,
     floor) (execution.py's rule, zero-cost edges included), leaves the rest and the
     original untouched, and keeps per-joint energies proportional."""
-    from mpd_pin.execution import penalised_cost
-    from mpd_pin.roadmap import Roadmap
-    from mpd_pin.runner import penalised_roadmap
+    from mpd_pin.app.runner import penalised_roadmap
+    from mpd_pin.planning.execution import penalised_cost
+    from mpd_pin.planning.roadmap import Roadmap
 
     energy = np.array([[1.0, 3.0], [2.0, 2.0], [0.0, 0.0], [0.0, 0.0], [5.0, 1.0], [0.5, 0.5]])
     src, dst = np.array([0, 1, 1, 2, 2, 3]), np.array([1, 0, 2, 1, 3, 2])

@@ -1,6 +1,6 @@
 """Edge energies against an independent sympy model of the motor-augmented ODE (DESIGN §3).
 
-The reference here shares no code with ``mpd_pin.energy``: the rigid-body terms
+The reference here shares no code with ``mpd_pin.dynamics.simulate``: the rigid-body terms
 D, C, G come from the sympy Lagrangian of ``test_dynamics_sympy`` (built from
 the URDF files by hand), the quintic reference, the feed-forward
 (``d i_ff/dt`` by sympy differentiation of τ_ff along the reference with

@@ -10,14 +10,14 @@ import pytest
 
 import mpd_pin as mp
 from mpd_pin.collision import CollisionChecker
-from mpd_pin.execution import (
+from mpd_pin.planning.execution import (
     HazardClearanceWarning,
     blocked_edges,
     execute,
     penalised_cost,
     plan_avoiding_hazards,
 )
-from mpd_pin.roadmap import EnergyCost, RoadmapOptions, build_roadmap
+from mpd_pin.planning.roadmap import EnergyCost, RoadmapOptions, build_roadmap
 from mpd_pin.search import Dijkstra
 from mpd_pin.world import Box, Cylinder, Hazard, Polygon, World
 

@@ -8,7 +8,7 @@ import pytest
 
 import mpd_pin as mp
 from mpd_pin.collision import CollisionChecker
-from mpd_pin.occupancy import default_frame, frame_positions, occupancy_analysis
+from mpd_pin.viz.occupancy import default_frame, frame_positions, occupancy_analysis
 from mpd_pin.world import Box, Cylinder, Hazard, Polygon, World
 
 matplotlib.use("Agg")

@@ -19,7 +19,7 @@ import pytest
 from replay_helpers import animation_clips, decode_commands, screenshots, track
 
 import mpd_pin as mp
-from mpd_pin import replay as rp
+from mpd_pin.viz import replay as rp
 from mpd_pin.world import Box, Cylinder, Hazard, Polygon, Sphere, World
 
 T_END = 2.0  # s, duration of the planar motion

@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mpd_pin.cli import main as cli_main
-from mpd_pin.config import ConfigError
+from mpd_pin.app.cli import main as cli_main
+from mpd_pin.app.config import ConfigError
 from mpd_pin.twolink.run import run_dynamic_scenario
 from mpd_pin.twolink.scenario import parse_dynamic_scenario
 

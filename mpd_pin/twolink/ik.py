@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..arm import Arm
+from ..arm.model import Arm
 
 __all__ = [
     "BRANCHES",

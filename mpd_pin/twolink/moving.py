@@ -38,8 +38,8 @@ from typing import Any
 
 import numpy as np
 
-from ..arm import Arm
-from ..collision import CollisionChecker
+from ..arm.model import Arm
+from ..collision.checker import CollisionChecker
 from ..world import Cylinder, World
 
 __all__ = [

@@ -60,7 +60,7 @@ from typing import Any
 
 import numpy as np
 
-from ..arm import Arm
+from ..arm.model import Arm
 from ..errors import NoPathError
 from .fcs import FreeCartesianSpace, Grid
 from .grid_dstar import GridDStar

@@ -71,9 +71,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..arm import Arm
-from ..config import ConfigError, Table
-from ..robots import BUILTIN_ARMS, builtin_arm
+from ..app.config import ConfigError, Table
+from ..arm.builtin import BUILTIN_ARMS, builtin_arm
+from ..arm.model import Arm
 from .fcs import Grid
 from .ik import link_lengths
 from .moving import (

@@ -169,8 +169,8 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from .arm import Arm
-from .world import Hazard, World, geometry_object
+from ..arm.model import Arm
+from ..world import Hazard, World, geometry_object
 
 __all__ = [
     "CollisionChecker",

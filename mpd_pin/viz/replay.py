@@ -64,10 +64,10 @@ with warnings.catch_warnings():  # meshcat's server module imports a deprecated 
 import zmq
 from pinocchio.visualize import MeshcatVisualizer
 
-from .world import Box, Cylinder, Hazard, Polygon, Sphere, World
+from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
 
 if TYPE_CHECKING:
-    from .arm import Arm
+    from ..arm.model import Arm
 
 __all__ = [
     "write_replay", "keyframe_indices", "obstacle_node", "ARM_NODE", "WORLD_NODE", "PATHS_NODE"

@@ -16,8 +16,8 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
-from .arm import Arm
-from .world import Box, Cylinder, Hazard, Polygon, Sphere, World
+from ..arm.model import Arm
+from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
 
 __all__ = [
     "draw_world_xz",

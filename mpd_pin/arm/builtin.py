@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .arm import Arm
+from .model import Arm
 from .urdf import planar_arm_urdf
 
 __all__ = ["PlanarArmSpec", "BUILTIN_ARMS", "builtin_arm_urdf", "builtin_arm"]

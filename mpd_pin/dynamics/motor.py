@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pinocchio as pin
 
-from .arm import Arm
+from ..arm.model import Arm
 
 __all__ = ["DCMotor", "PAPER_MOTOR", "SERVO_MOTOR", "Drive"]
 

@@ -132,7 +132,7 @@ def _feedforward_single(drive: Drive, q0: np.ndarray, dq: np.ndarray, tau: np.nd
 
 def _feedforward_batch(drive: Drive, Q0: np.ndarray, DQ: np.ndarray, tau: np.ndarray, T: float):
     """V_ff and i_ff, shape (nt, K, nq), for K edges at the normalised times ``tau``."""
-    from .batch_dynamics import rnea_with_derivative
+    from .batch import rnea_with_derivative
 
     s, sd, sdd, sddd = quintic(tau, T)
     nt = tau.size

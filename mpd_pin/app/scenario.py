@@ -69,12 +69,12 @@ from typing import Any
 
 import numpy as np
 
-from .arm import Arm
+from ..arm.builtin import BUILTIN_ARMS, builtin_arm
+from ..arm.model import Arm
+from ..dynamics.motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
+from ..planning.roadmap import RoadmapOptions
+from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
 from .config import ConfigError, Table
-from .motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
-from .roadmap import RoadmapOptions
-from .robots import BUILTIN_ARMS, builtin_arm
-from .world import Box, Cylinder, Hazard, Polygon, Sphere, World
 
 __all__ = [
     "EnergyScenario",
@@ -393,7 +393,7 @@ def _shape(t: Table):
 
 
 def _endpoint(t: Table, key: str, arm: Arm, world: World, ik_seed: int) -> np.ndarray:
-    from .ik import solve_position_ik
+    from ..arm.ik import solve_position_ik
 
     if t.has(key) and t.has(f"{key}_ee"):
         raise ConfigError(f"{t.path}: give {key} or {key}_ee, not both")

@@ -22,9 +22,9 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from .arm import Arm
-from .collision import CollisionChecker
-from .world import Hazard, World
+from ..arm.model import Arm
+from ..collision.checker import CollisionChecker
+from ..world import Hazard, World
 
 __all__ = ["Occupancy", "occupancy_analysis", "default_frame", "PLANES"]
 

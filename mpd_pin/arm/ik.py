@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from .arm import Arm
+from .model import Arm
 
 __all__ = ["solve_position_ik"]
 
@@ -43,7 +43,7 @@ def solve_position_ik(
         raise ValueError(f"arm {arm.name!r} has no frame {frame!r}")
     checker = None
     if world is not None:
-        from .collision import CollisionChecker
+        from ..collision.checker import CollisionChecker
 
         checker = CollisionChecker(arm, world)
     model, data = arm.model, arm.model.createData()

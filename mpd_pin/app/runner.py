@@ -24,12 +24,12 @@ from typing import Any
 
 import numpy as np
 
-from .collision import CollisionChecker, edge_configurations
-from .energy import simulate_edge
-from .execution import execute, penalised_cost, plan_avoiding_hazards
-from .roadmap import EnergyCost, Roadmap, build_roadmap
+from ..collision.checker import CollisionChecker, edge_configurations
+from ..dynamics.simulate import simulate_edge
+from ..planning.execution import execute, penalised_cost, plan_avoiding_hazards
+from ..planning.roadmap import EnergyCost, Roadmap, build_roadmap
+from ..search import AStar, Dijkstra, DStarLite, MPDStarLite
 from .scenario import EnergyScenario
-from .search import AStar, Dijkstra, DStarLite, MPDStarLite
 
 __all__ = [
     "run_energy_scenario",
@@ -189,7 +189,7 @@ def run_energy_scenario(
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    from .plots import plot_arm_path, plot_cumulative_energy, plot_joint_angles
+    from ..viz.plots import plot_arm_path, plot_cumulative_energy, plot_joint_angles
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -321,8 +321,8 @@ def run_energy_scenario(
             plt.close(fig)
 
     if replay:
-        from .plots import ee_trace
-        from .replay import write_replay
+        from ..viz.plots import ee_trace
+        from ..viz.replay import write_replay
 
         with clock.phase("replay"):
             reveal = {}

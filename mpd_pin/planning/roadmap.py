@@ -31,9 +31,9 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .energy import edge_energies, step_count
-from .motor import Drive
-from .search import Graph
+from ..dynamics.motor import Drive
+from ..dynamics.simulate import edge_energies, step_count
+from ..search import Graph
 
 __all__ = ["RoadmapOptions", "EnergyCost", "Roadmap", "build_roadmap", "ROADMAP_FORMAT"]
 

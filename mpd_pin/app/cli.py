@@ -17,8 +17,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..errors import MpdPinError, NoPathError
 from .config import ConfigError
-from .errors import MpdPinError, NoPathError
 
 __all__ = ["main"]
 
@@ -51,7 +51,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} exists and is not a directory")
     if data.get("kind", "energy") == "dynamic2link":
-        from .twolink.run import run_dynamic_scenario
+        from ..twolink.run import run_dynamic_scenario
 
         result = run_dynamic_scenario(data, out, seed=args.seed, show_progress=not args.quiet)
         print(f"{result.get('name', path.stem)}: D* path {result['path_length_dstar']:.4f} m, "

@@ -26,10 +26,10 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .collision import CollisionChecker, edge_configurations
+from ..collision.checker import CollisionChecker, edge_configurations
+from ..search import MPDStarLite, Planner
+from ..world import World
 from .roadmap import Roadmap
-from .search import MPDStarLite, Planner
-from .world import World
 
 __all__ = [
     "ReplanEvent",

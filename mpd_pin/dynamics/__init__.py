@@ -1,0 +1,22 @@
+"""Stage 2 — dynamics: DC motors, the PD + feed-forward drive, edge simulation and edge costs.
+
+The motor-augmented ODE and its energy integrals are docs/design.md §3.
+:func:`simulate_edge` integrates one edge with RK4; :func:`edge_energies` integrates
+thousands at once (``pin.abaInParallel``) with identical results row by row.
+"""
+
+from .motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
+from .simulate import (
+    EdgeSimulation,
+    edge_energies,
+    ideal_edge_energies,
+    ideal_edge_energy,
+    quintic,
+    simulate_edge,
+    step_count,
+)
+
+__all__ = [
+    "DCMotor", "Drive", "EdgeSimulation", "PAPER_MOTOR", "SERVO_MOTOR", "edge_energies",
+    "ideal_edge_energies", "ideal_edge_energy", "quintic", "simulate_edge", "step_count",
+]

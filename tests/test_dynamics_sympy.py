@@ -1,4 +1,4 @@
-"""Rigid-body terms of the planar arms against an independent sympy Lagrangian (DESIGN §1–2).
+"""Rigid-body terms of the planar arms against a sympy Lagrangian (docs/design.md §1-2).
 
 The reference model is built here from the committed URDF files, read with
 ``xml.etree`` (never through Pinocchio): joint offsets, link masses, centres of

@@ -1,4 +1,4 @@
-"""Edge energies against an independent sympy model of the motor-augmented ODE (DESIGN §3).
+"""Edge energies against an independent sympy model of the motor-augmented ODE (docs/design.md §3).
 
 The reference here shares no code with ``mpd_pin.dynamics.simulate``: the rigid-body terms
 D, C, G come from the sympy Lagrangian of ``test_dynamics_sympy`` (built from

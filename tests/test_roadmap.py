@@ -1,4 +1,4 @@
-"""Roadmap: sampling, connections, edge checks, directed energy costs, files (DESIGN §4)."""
+"""Roadmap: sampling, connections, edge checks, directed energy costs, files (docs/design.md §4)."""
 
 import hashlib
 import math

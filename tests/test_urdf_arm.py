@@ -1,4 +1,4 @@
-"""Generated planar URDFs and the Arm loader (DESIGN §1–2)."""
+"""Generated planar URDFs and the Arm loader (docs/design.md §1–2)."""
 
 import math
 import subprocess

@@ -16,8 +16,6 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
@@ -28,8 +26,10 @@ from ..collision.checker import CollisionChecker, edge_configurations
 from ..dynamics.simulate import simulate_edge
 from ..planning.execution import execute, penalised_cost, plan_avoiding_hazards
 from ..planning.roadmap import EnergyCost, Roadmap, build_roadmap
-from ..search import AStar, Dijkstra, DStarLite, MPDStarLite
+from ..search import PLANNERS
+from .results import to_jsonable
 from .scenario import EnergyScenario
+from .timing import PhaseClock
 
 __all__ = [
     "run_energy_scenario",
@@ -40,7 +40,6 @@ __all__ = [
     "PhaseClock",
 ]
 
-PLANNERS = {"mpdstar": MPDStarLite, "dstar": DStarLite, "astar": AStar, "dijkstra": Dijkstra}
 
 
 def simulate_path(drive, roadmap: Roadmap, path: list[int], dt: float) -> dict[str, np.ndarray]:
@@ -77,21 +76,6 @@ def simulate_path(drive, roadmap: Roadmap, path: list[int], dt: float) -> dict[s
         "edge_energy": np.array(per_edge).reshape(len(ids), nq),
         "node_times": np.array(node_times),
     }
-
-
-def _json(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _json(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_json(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _json(obj.tolist())
-    if isinstance(obj, (np.floating, float)):
-        f = float(obj)
-        return f if math.isfinite(f) else ("inf" if f > 0 else "-inf" if f < 0 else "nan")
-    if isinstance(obj, np.integer):
-        return int(obj)
-    return obj
 
 
 #: At most about this many samples of the simulated motion go into replay.html.
@@ -146,33 +130,6 @@ def straight_line_configurations(roadmap: Roadmap, nodes: list[int], resolution:
     for u, v in zip(nodes[:-1], nodes[1:], strict=True):
         Q.append(edge_configurations(roadmap.nodes[u], roadmap.nodes[v], resolution)[1:])
     return np.concatenate(Q)
-
-
-class PhaseClock:
-    """Wall-clock (:func:`time.perf_counter`) and CPU (:func:`time.process_time`) seconds
-    per phase. CPU time is that of this process summed over its threads (Pinocchio's
-    OpenMP batches), so it can exceed the wall time; child processes (the meshcat
-    server) are not included."""
-
-    def __init__(self) -> None:
-        self.wall: dict[str, float] = {}
-        self.cpu: dict[str, float] = {}
-        self._wall0 = time.perf_counter()
-        self._cpu0 = time.process_time()
-
-    @contextmanager
-    def phase(self, name: str) -> Iterator[None]:
-        w, c = time.perf_counter(), time.process_time()
-        try:
-            yield
-        finally:
-            self.wall[name] = self.wall.get(name, 0.0) + time.perf_counter() - w
-            self.cpu[name] = self.cpu.get(name, 0.0) + time.process_time() - c
-
-    def finish(self) -> None:
-        """Record the ``total`` since construction."""
-        self.wall["total"] = time.perf_counter() - self._wall0
-        self.cpu["total"] = time.process_time() - self._cpu0
 
 
 def run_energy_scenario(
@@ -368,5 +325,5 @@ def run_energy_scenario(
     result["cpu_seconds_total"] = clock.cpu["total"]
     result["outputs"] = sorted(p.name for p in out_dir.iterdir())
     with open(out_dir / "result.json", "w", encoding="utf-8") as f:
-        json.dump(_json(result), f, indent=1)
+        json.dump(to_jsonable(result), f, indent=1)
     return result

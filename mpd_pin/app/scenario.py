@@ -1,4 +1,4 @@
-"""Scenario files (TOML): arm, motors, controller, world, roadmap and task (DESIGN §7).
+"""Scenario files (TOML): arm, motors, controller, world, roadmap and task (docs/design.md §7).
 
 A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
 
@@ -73,6 +73,7 @@ from ..arm.builtin import BUILTIN_ARMS, builtin_arm
 from ..arm.model import Arm
 from ..dynamics.motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
 from ..planning.roadmap import RoadmapOptions
+from ..search.registry import DEFAULT_PLANNER, PLANNERS
 from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
 from .config import ConfigError, Table
 
@@ -105,7 +106,7 @@ class EnergyScenario:
     goal: np.ndarray
     sensor_range: float | None = None
     hazard_penalty: float = math.inf
-    planner: str = "mpdstar"
+    planner: str = DEFAULT_PLANNER
     source: str = ""
     extra: dict[str, Any] = field(default_factory=dict)
 
@@ -451,9 +452,7 @@ def parse_energy_scenario(
     if world.hidden_names() and sensor_range is None:
         raise ConfigError("sensor.range: required when some obstacles are hidden")
     planner_t = top.table("planner")
-    planner = planner_t.string(
-        "algorithm", "mpdstar", choices=("mpdstar", "dstar", "astar", "dijkstra")
-    )
+    planner = planner_t.string("algorithm", DEFAULT_PLANNER, choices=tuple(PLANNERS))
     penalty = planner_t.number("hazard_penalty", math.inf)
     if not penalty >= 1.0:
         raise ConfigError(f"planner.hazard_penalty: must be ≥ 1 (inf removes edges), got {penalty}")

@@ -1,7 +1,7 @@
 """The planar arms of the papers, as specifications that regenerate ``robots/*.urdf``.
 
 Masses and radii are ours (the papers give none); they are listed in
-``robots/README.md``. Links are uniform solid cylinders (DESIGN §1).
+``robots/README.md``. Links are uniform solid cylinders (docs/design.md §1).
 """
 
 from __future__ import annotations

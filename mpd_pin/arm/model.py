@@ -1,4 +1,4 @@
-"""Robot arms: a Pinocchio model plus its collision and visual geometry (DESIGN §1–2).
+"""Robot arms: a Pinocchio model plus its collision and visual geometry (docs/design.md §1–2).
 
 ``Arm`` loads any fixed-base URDF arm whose joints are revolute or prismatic
 (one coordinate each, so ``nq == nv``), or a robot from example-robot-data with

@@ -1,4 +1,4 @@
-"""Planar serial arms as URDF, built with yourdfpy (DESIGN §1).
+"""Planar serial arms as URDF, built with yourdfpy (docs/design.md §1).
 
 Convention: the arm moves in the vertical x–z plane. Every revolute joint turns
 about ``0 -1 0``, each link extends along +x of its own frame, and gravity is
@@ -76,7 +76,7 @@ def planar_arm_urdf(
     effort: float = 100.0,
     velocity: float = 10.0,
 ) -> str:
-    """URDF text of a planar serial arm in the vertical x–z plane (DESIGN §1).
+    """URDF text of a planar serial arm in the vertical x–z plane (docs/design.md §1).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Configuration and edge validity for an arm in a :class:`~mpd_pin.world.World` (DESIGN §4).
+"""Configuration and edge validity for an arm in a World (docs/design.md §4).
 
 :class:`CollisionChecker` is an OMPL-style validity checker: it knows the arm
 and the world but nothing about the planner. It builds ONE Pinocchio

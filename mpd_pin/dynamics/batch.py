@@ -1,6 +1,6 @@
-"""Batched inverse dynamics with its exact time derivative (DESIGN §3).
+"""Batched inverse dynamics with its exact time derivative (docs/design.md §3).
 
-The feed-forward voltage of DESIGN §3 needs, along a reference trajectory,
+The feed-forward voltage of docs/design.md §3 needs, along a reference trajectory,
 
     τ(t) = RNEA(q, q̇, q̈)                                    [N·m, or N]
     τ̇(t) = ∂τ/∂q · q̇ + ∂τ/∂q̇ · q̈ + M(q) · q⃛                 [N·m/s, or N/s]
@@ -247,7 +247,7 @@ def rnea_with_derivative(
     Returns ``(tau, tau_dot)``, each (nv, B): τ = RNEA(q, q̇, q̈) in N·m (N for
     prismatic joints), equal to ``pin.rnea`` including ``model.armature · q̈``
     and ``model.gravity``; τ̇ = dτ/dt along the trajectory in N·m/s (N/s), i.e.
-    ∂τ/∂q q̇ + ∂τ/∂q̇ q̈ + M(q) q⃛ with M including the armature.  DESIGN §3.
+    ∂τ/∂q q̇ + ∂τ/∂q̇ q̈ + M(q) q⃛ with M including the armature.  docs/design.md §3.
 
     Only 1-DoF revolute and prismatic joints (any axis) are supported; anything
     else raises ValueError.  ``chunk`` is the number of configurations processed

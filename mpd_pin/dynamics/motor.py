@@ -1,4 +1,4 @@
-"""DC motors, gearing and the joint voltage controller (DESIGN §3, paper 000 eq. 2, Table 7).
+"""DC motors, gearing and the joint voltage controller (docs/design.md §3; paper 000 Table 7).
 
 Per joint k the motor obeys
 
@@ -95,7 +95,7 @@ def _per_joint(value, nq: int, what: str, *, positive: bool = False) -> np.ndarr
 class Drive:
     """An arm with one DC motor per joint and a PD + feed-forward voltage controller.
 
-    ``V = sat(V_ff + Kp (q_ref − q) + Kd (q̇_ref − q̇), ±V_max)`` (DESIGN §3).
+    ``V = sat(V_ff + Kp (q_ref − q) + Kd (q̇_ref − q̇), ±V_max)`` (docs/design.md §3).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Electrical energy of a move between two configurations (DESIGN §3, paper 000 eq. 2).
+"""Electrical energy of a move between two configurations (docs/design.md §3, paper 000 eq. 2).
 
 The motor-augmented ODE, per joint k, with state x = [q, q̇, i] and input V:
 
@@ -189,7 +189,7 @@ def _check_edge(drive: Drive, q0, q1) -> tuple[np.ndarray, np.ndarray]:
 
 @np.errstate(over="ignore", invalid="ignore")  # divergence is detected and reported below
 def simulate_edge(drive: Drive, q0, q1, duration: float = 1.0, dt: float = 5e-3) -> EdgeSimulation:
-    """Simulate the move q0 → q1 (rad) over ``duration`` s with RK4 step ``dt`` s (DESIGN §3).
+    """Simulate the move q0 → q1 (rad) over ``duration`` s, RK4 step ``dt`` s (docs/design.md §3).
 
     Starts at rest holding the arm (i = G(q0)/(n Kt)). Raises ValueError for
     NaN or wrong-length configurations, T/dt not whole, or an unstable dt.
@@ -406,7 +406,7 @@ def edge_energies(
     threads: int | None = None,
     progress: Callable[[int], None] | None = None,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-    """E⁺ per joint (J), shape (K, nq), for the K edges ``Q0[k] → Q1[k]`` (DESIGN §3).
+    """E⁺ per joint (J), shape (K, nq), for the K edges ``Q0[k] → Q1[k]`` (docs/design.md §3).
 
     The same ODE, controller and RK4 as :func:`simulate_edge`, integrated for
     all edges at once with ``pin.abaInParallel``. ``duration`` (s) is a scalar or
@@ -472,7 +472,7 @@ def ideal_edge_energy(
     electrical time constant L/R is short against the edge (e.g. ``SERVO_MOTOR``);
     with ``PAPER_MOTOR`` (L/R = 0.5 s) a high-gain loop rings through the edge and
     E⁺ counts the positive half of that ringing, so the two stay apart.
-    Uses the feed-forward formulas of DESIGN §3 whatever ``drive.feedforward`` says.
+    Uses the feed-forward formulas of docs/design.md §3 whatever ``drive.feedforward`` says.
     """
     q0, q1 = _check_edge(drive, q0, q1)
     N = step_count(duration, dt)

@@ -1,4 +1,4 @@
-"""Executing a roadmap path while the world changes (paper 000 §5.2, Figs. 16–17; DESIGN §5).
+"""Executing a roadmap path while the world changes (paper 000 §5.2; docs/design.md §5).
 
 * :func:`execute` — the arm moves node by node along the planned path. Before
   each move a sensor looks for obstacles that are not on the map: every hidden

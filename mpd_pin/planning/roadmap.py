@@ -1,4 +1,4 @@
-"""Probabilistic roadmap with directed electrical-energy edge costs (DESIGN §4).
+"""Probabilistic roadmap with directed electrical-energy edge costs (docs/design.md §4).
 
 Nodes are seeded uniform random collision-free configurations inside the joint
 limits, plus the start and the goal. Each node is joined to its k nearest

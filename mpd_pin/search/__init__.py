@@ -16,9 +16,13 @@ from mpd_pin.search.base import Heuristic, Path, Planner, SearchInvariantError, 
 from mpd_pin.search.best_first import AStar, Dijkstra
 from mpd_pin.search.dstar_lite import DStarLite, MPDStarLite
 from mpd_pin.search.graph import Graph
+from mpd_pin.search.registry import DEFAULT_PLANNER, PLANNERS, planner_class
 
 __all__ = [
     "AStar",
+    "DEFAULT_PLANNER",
+    "PLANNERS",
+    "planner_class",
     "DStarLite",
     "Dijkstra",
     "Graph",

@@ -12,7 +12,7 @@ cost from ``a`` to ``b``), satisfy ``h(a, a) == 0`` and the triangle inequality
 directions (forward for A*, from the start for D* Lite's keys), which every
 planner here relies on for optimality. A Euclidean distance is such a bound for
 costs that are at least the length of the edge; for energy a plain joint-space
-distance is *not* a lower bound, so the default stays zero (DESIGN §5).
+distance is *not* a lower bound, so the default stays zero (docs/design.md §5).
 Values must be finite and ``>= 0``, and they should hold in floating point too
 (shrink a tight bound by a relative 1e-12 if in doubt).
 """

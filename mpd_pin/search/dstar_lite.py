@@ -15,7 +15,7 @@ g-gradient: at each node the successor minimising ``cost + g``. The search core
 is identical for both, so a comparison measures only path extraction, which is
 the one difference the paper claims (000 §5).
 
-Implementation notes (pitfalls of public implementations, DESIGN §5):
+Implementation notes (pitfalls of public implementations, docs/design.md §5):
 
 * Zero-cost edges. Classic D* Lite assumes costs > 0: with a zero-cost cycle
   two nodes can end up consistent while supporting each other with a stale

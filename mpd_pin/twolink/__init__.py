@@ -1,4 +1,4 @@
-"""Two-link arm among obstacles moving on known trajectories (paper 002, DESIGN §6).
+"""Two-link arm among obstacles moving on known trajectories (paper 002, docs/design.md §6).
 
 Pipeline (:func:`plan_dynamic`): analytic IK with elbow-up/down branches
 (:mod:`.ik`, eqs. 3–6) → free-Cartesian-space maps of a workspace grid at

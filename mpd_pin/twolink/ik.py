@@ -1,6 +1,6 @@
 """Analytic kinematics of the planar two-link arm (paper 002 §3, eqs. 1–6).
 
-The arm moves in the vertical x–z plane (DESIGN §1): both joints turn about
+The arm moves in the vertical x–z plane (docs/design.md §1): both joints turn about
 ``0 -1 0``, so positive angles turn +x towards +z and the end effector is
 
     x = l1 cos q1 + l2 cos(q1 + q2),   z = l1 sin q1 + l2 sin(q1 + q2)      (eqs. 1–2)
@@ -174,7 +174,7 @@ def link_lengths(arm: Arm, ee_frame: str = "ee") -> tuple[float, float]:
         if axis is None or np.linalg.norm(axis - np.array([0.0, -1.0, 0.0])) > 1e-9:
             raise ValueError(
                 f"arm {arm.name!r}: joint {m.names[j]!r} ({jm.shortname()}) is not a revolute "
-                "joint about 0 -1 0 (the planar convention, DESIGN §1)"
+                "joint about 0 -1 0 (the planar convention, docs/design.md §1)"
             )
     p2 = m.jointPlacements[2]
     if not np.allclose(p2.rotation, np.eye(3), atol=1e-12):

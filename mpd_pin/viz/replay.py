@@ -1,4 +1,4 @@
-"""Self-contained meshcat recording of a planned motion (DESIGN §7–8: ``replay.html``).
+"""Self-contained meshcat recording of a planned motion (docs/design.md §7–8: ``replay.html``).
 
 :func:`write_replay` starts a private meshcat server on loopback, loads the arm's
 *visual* geometry (primitives or meshes, through Pinocchio's ``MeshcatVisualizer``),

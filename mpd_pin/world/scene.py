@@ -1,4 +1,4 @@
-"""The arm's surroundings: obstacles, "No Enter" hazard zones and hidden obstacles (DESIGN §4).
+"""The arm's surroundings: obstacles, hazard zones and hidden obstacles (docs/design.md §4).
 
 :class:`World` holds named obstacles (:mod:`mpd_pin.world.shapes`) and hazards. An
 obstacle with ``hidden=True`` is not known at first: :class:`World` reports it only

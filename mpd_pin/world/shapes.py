@@ -1,4 +1,4 @@
-"""The arm's surroundings: obstacles, "No Enter" hazard zones and hidden obstacles (DESIGN §4).
+"""Obstacle shapes: box, cylinder, sphere, extruded convex polygon (docs/design.md §4).
 
 Every obstacle is a frozen dataclass with a pose in the world frame: ``position``
 (m) and orientation as roll-pitch-yaw ``rpy`` (rad, ``R = Rz(yaw) Ry(pitch) Rx(roll)``,

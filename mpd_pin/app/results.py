@@ -1,0 +1,61 @@
+"""The one encoder of result files: numpy and non-finite numbers to strict JSON.
+
+Every ``result.json`` that mpd_pin writes goes through :func:`to_jsonable` /
+:func:`write_json`. Rules (docs/design.md §7):
+
+* numpy arrays become lists, numpy scalars Python numbers, tuples lists, keys strings;
+* **a non-finite number (±inf, NaN) is written as ``null``** — strict JSON has no
+  infinity, and a reader in any language parses ``null``. The field's documentation
+  says what ``null`` means there (for example "unbounded" for a clearance with no
+  obstacle in range, "not defined" for a ratio with a zero denominator).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["to_jsonable", "write_json"]
+
+
+def to_jsonable(obj: Any) -> Any:
+    """``obj`` with numpy types converted and every non-finite float replaced by ``None``."""
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return to_jsonable(obj.tolist())
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    if isinstance(obj, (np.floating, float)):
+        f = float(obj)
+        return f if math.isfinite(f) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    return obj
+
+
+def write_json(path: str | os.PathLike, obj: Any) -> Path:
+    """Write ``to_jsonable(obj)`` to ``path`` atomically (temporary file, then ``os.replace``).
+
+    The text is produced (and validated as strict JSON) before anything is written, so a
+    failure leaves no partial file."""
+    path = Path(path)
+    text = json.dumps(to_jsonable(obj), indent=1, allow_nan=False)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.write("\n")
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path

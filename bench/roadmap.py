@@ -16,7 +16,8 @@ import numpy as np
 
 import mpd_pin as mp
 from mpd_pin.collision import CollisionChecker
-from mpd_pin.planning.roadmap import EnergyCost, RoadmapOptions, build_roadmap
+from mpd_pin.dynamics import EnergyCost
+from mpd_pin.planning.roadmap import RoadmapOptions, build_roadmap
 from mpd_pin.world import Box, Cylinder, World
 
 

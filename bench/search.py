@@ -359,7 +359,8 @@ def energy_roadmap(num_total: int, seed: int = 0):
     """
     import mpd_pin as mp
     from mpd_pin.collision import CollisionChecker
-    from mpd_pin.planning.roadmap import EnergyCost, RoadmapOptions, build_roadmap
+    from mpd_pin.dynamics import EnergyCost
+    from mpd_pin.planning.roadmap import RoadmapOptions, build_roadmap
     from mpd_pin.world import Box, World
 
     arm = mp.builtin_arm("planar_3link")
@@ -596,7 +597,7 @@ def replanning(sizes: list[int], graphs: dict, repeats: int) -> None:
 def _dijkstra_lazy(g: Graph, s: int, t: int) -> float:
     from heapq import heappop, heappush
 
-    sptr, sdst, scost = g._sptr, g._sdst, g._scost
+    sptr, sdst, scost = g.successor_view
     dist = [math.inf] * g.num_nodes
     dist[s] = 0.0
     heap = [(0.0, s)]
@@ -617,7 +618,7 @@ def _dijkstra_lazy(g: Graph, s: int, t: int) -> float:
 
 def _dijkstra_indexed(g: Graph, s: int, t: int) -> float:
     """Same loop with a binary heap that supports decrease-key (positions array)."""
-    sptr, sdst, scost = g._sptr, g._sdst, g._scost
+    sptr, sdst, scost = g.successor_view
     n = g.num_nodes
     dist = [math.inf] * n
     pos = [-1] * n  # index in heap, -1 = not in heap

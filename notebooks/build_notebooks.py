@@ -334,7 +334,8 @@ NB02 = [
         from mpd_pin import NoPathError
         from mpd_pin.collision import CollisionChecker
         from mpd_pin.viz.plots import plot_arm_path, plot_cumulative_energy
-        from mpd_pin.planning.roadmap import EnergyCost, build_roadmap
+        from mpd_pin.dynamics import EnergyCost
+        from mpd_pin.planning.roadmap import build_roadmap
         from mpd_pin.app.runner import simulate_path
         from mpd_pin.app.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
         from mpd_pin.search import MPDStarLite
@@ -515,7 +516,8 @@ NB03 = [
         from mpd_pin.planning.execution import execute, plan_avoiding_hazards
         from mpd_pin.viz.plots import arm_points, plot_arm_path, plot_cumulative_energy
         from mpd_pin.viz.replay import write_replay
-        from mpd_pin.planning.roadmap import EnergyCost, build_roadmap
+        from mpd_pin.dynamics import EnergyCost
+        from mpd_pin.planning.roadmap import build_roadmap
         from mpd_pin.app.runner import replay_indices, simulate_path, straight_line_configurations
         from mpd_pin.app.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
 
@@ -810,7 +812,8 @@ NB04 = [
 
         import mpd_pin as mp
         from mpd_pin.collision import CollisionChecker
-        from mpd_pin.planning.roadmap import EnergyCost, RoadmapOptions, build_roadmap
+        from mpd_pin.dynamics import EnergyCost
+        from mpd_pin.planning.roadmap import RoadmapOptions, build_roadmap
         from mpd_pin.search import AStar, Dijkstra, DStarLite, MPDStarLite
         from mpd_pin.world import Box, World
 

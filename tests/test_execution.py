@@ -10,6 +10,7 @@ import pytest
 
 import mpd_pin as mp
 from mpd_pin.collision import CollisionChecker
+from mpd_pin.dynamics import EnergyCost
 from mpd_pin.planning.execution import (
     HazardClearanceWarning,
     blocked_edges,
@@ -17,7 +18,7 @@ from mpd_pin.planning.execution import (
     penalised_cost,
     plan_avoiding_hazards,
 )
-from mpd_pin.planning.roadmap import EnergyCost, RoadmapOptions, build_roadmap
+from mpd_pin.planning.roadmap import RoadmapOptions, build_roadmap
 from mpd_pin.search import Dijkstra
 from mpd_pin.world import Box, Cylinder, Hazard, Polygon, World
 

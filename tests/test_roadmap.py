@@ -9,7 +9,8 @@ from planar_geometry import min_signed_distance
 
 import mpd_pin as mp
 from mpd_pin.collision import CollisionChecker
-from mpd_pin.planning.roadmap import EnergyCost, Roadmap, RoadmapOptions, build_roadmap
+from mpd_pin.dynamics import EnergyCost
+from mpd_pin.planning.roadmap import Roadmap, RoadmapOptions, build_roadmap
 from mpd_pin.world import Box, Cylinder, World
 
 START = np.array([0.6, 0.3, 0.2])

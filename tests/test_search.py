@@ -491,3 +491,25 @@ def test_search_runs_without_loading_pinocchio_or_coal() -> None:
         "    print('ok')\n"
     )
     run_ok(code2)
+
+
+def test_adjacency_views_are_live_and_match_networkx() -> None:
+    """The planners' read-only CSR views list exactly networkx's successors/predecessors
+    with their costs, and see a set_cost made after the view was taken."""
+    edges = [(0, 1, 2.0), (0, 2, 5.0), (1, 2, 1.0), (2, 0, 0.5), (3, 1, 4.0)]
+    g = Graph(4, edges)
+    ref = nx.DiGraph()
+    ref.add_nodes_from(range(4))
+    ref.add_weighted_edges_from(edges)
+    succ, pred = g.successor_view, g.predecessor_view
+    for u in range(4):
+        a, b = succ.ptr[u], succ.ptr[u + 1]
+        assert list(zip(succ.nbr[a:b], succ.cost[a:b], strict=True)) == sorted(
+            (v, d["weight"]) for v, d in ref.succ[u].items())
+        a, b = pred.ptr[u], pred.ptr[u + 1]
+        assert list(zip(pred.nbr[a:b], pred.cost[a:b], strict=True)) == sorted(
+            (w, d["weight"]) for w, d in ref.pred[u].items())
+    k = g.set_cost(1, 2, 7.0)
+    assert succ.nbr[k] == 2 and succ.cost[k] == 7.0
+    j = pred.ptr[2] + pred.nbr[pred.ptr[2]:pred.ptr[3]].index(1)
+    assert pred.cost[j] == 7.0

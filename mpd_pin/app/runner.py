@@ -23,9 +23,10 @@ from typing import Any
 import numpy as np
 
 from ..collision.checker import CollisionChecker, edge_configurations
+from ..dynamics import EnergyCost
 from ..dynamics.simulate import simulate_edge
 from ..planning.execution import execute, penalised_cost, plan_avoiding_hazards
-from ..planning.roadmap import EnergyCost, Roadmap, build_roadmap
+from ..planning.roadmap import Roadmap, build_roadmap
 from ..search import PLANNERS
 from .results import to_jsonable
 from .scenario import EnergyScenario

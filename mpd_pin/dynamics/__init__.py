@@ -5,6 +5,7 @@ The motor-augmented ODE and its energy integrals are docs/design.md §3.
 thousands at once (``pin.abaInParallel``) with identical results row by row.
 """
 
+from .cost import EnergyCost
 from .motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
 from .simulate import (
     EdgeSimulation,
@@ -17,6 +18,7 @@ from .simulate import (
 )
 
 __all__ = [
-    "DCMotor", "Drive", "EdgeSimulation", "PAPER_MOTOR", "SERVO_MOTOR", "edge_energies",
-    "ideal_edge_energies", "ideal_edge_energy", "quintic", "simulate_edge", "step_count",
+    "DCMotor", "Drive", "EdgeSimulation", "EnergyCost", "PAPER_MOTOR", "SERVO_MOTOR",
+    "edge_energies", "ideal_edge_energies", "ideal_edge_energy", "quintic", "simulate_edge",
+    "step_count",
 ]

@@ -24,18 +24,17 @@ import hashlib
 import json
 import math
 import os
-from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..dynamics.motor import Drive
-from ..dynamics.simulate import edge_energies, step_count
+from ..dynamics.cost import EnergyCost
+from ..dynamics.simulate import step_count
 from ..search import Graph
 
-__all__ = ["RoadmapOptions", "EnergyCost", "Roadmap", "build_roadmap", "ROADMAP_FORMAT"]
+__all__ = ["RoadmapOptions", "Roadmap", "build_roadmap", "ROADMAP_FORMAT"]
 
 #: Version of the .npz layout and of the cost model; part of every file's key.
 ROADMAP_FORMAT = "mpd_pin.roadmap/1"
@@ -108,64 +107,6 @@ class RoadmapOptions:
         T = np.clip(steps * self.duration_quantum, self.min_duration, self.max_duration)
         # Snap to the dt grid exactly so T/dt is whole.
         return np.round(T / self.dt) * self.dt
-
-
-class EnergyCost:
-    """Directed edge cost = E⁺ per joint (J) of the drive tracking the quintic reference.
-
-    The one batched interface through which roadmaps get costs:
-    ``cost(Q0, Q1, durations, progress) -> (K, nq)``. ``executor`` (any
-    ``concurrent.futures.Executor``) splits large batches across workers.
-    """
-
-    def __init__(self, drive: Drive, dt: float = 5e-3, *, executor=None, chunk: int = 1024):
-        self.drive = drive
-        self.dt = float(dt)
-        self.executor = executor
-        self.chunk = int(chunk)
-
-    def describe(self) -> dict:
-        """Plain data that determines the costs (hashed into roadmap keys)."""
-        return {
-            "model": "quintic-rk4-E+",
-            "drive": self.drive.describe(),
-            "arm": self.drive.arm.fingerprint(),
-            "dt": self.dt,
-        }
-
-    def __call__(
-        self,
-        Q0: np.ndarray,
-        Q1: np.ndarray,
-        durations: np.ndarray,
-        progress: Callable[[int], None] | None = None,
-    ) -> np.ndarray:
-        if self.executor is None or Q0.shape[0] <= self.chunk:
-            return edge_energies(
-                self.drive, Q0, Q1, durations, self.dt, chunk=self.chunk, progress=progress
-            )
-        parts = []
-        for start in range(0, Q0.shape[0], self.chunk):
-            sl = slice(start, start + self.chunk)
-            parts.append(
-                self.executor.submit(
-                    edge_energies,
-                    self.drive,
-                    Q0[sl],
-                    Q1[sl],
-                    durations[sl],
-                    self.dt,
-                    chunk=self.chunk,
-                )
-            )
-        out, done = [], 0
-        for fut in parts:
-            res = fut.result()
-            out.append(res)
-            done += res.shape[0]
-            if progress is not None:
-                progress(done)
-        return np.concatenate(out, axis=0)
 
 
 @dataclass

@@ -113,6 +113,8 @@ class Planner(ABC):
                 f"heuristic must be callable h(a, b) -> float or None, got {heuristic!r}"
             )
         self.graph = graph
+        #: the graph's live CSR storage (read-only by contract, see Graph.successor_view)
+        self._succ = graph.successor_view
         self._start = graph.check_node(start, "start")
         self.goal = graph.check_node(goal, "goal")
         self.heuristic = heuristic
@@ -155,7 +157,7 @@ class Planner(ABC):
     def _path_from_nodes(self, nodes: list[int]) -> Path:
         """Build a Path, summing edge costs left to right; checks each edge is finite."""
         g = self.graph
-        sptr, sdst, scost = g._sptr, g._sdst, g._scost
+        sptr, sdst, scost = g.successor_view
         total = 0.0
         for u, v in zip(nodes[:-1], nodes[1:], strict=True):
             lo, hi = sptr[u], sptr[u + 1]

@@ -57,7 +57,7 @@ class _BestFirst(Planner):
 
     def _search(self) -> Path:
         gr = self.graph
-        sptr, sdst, scost = gr._sptr, gr._sdst, gr._scost
+        sptr, sdst, scost = gr.successor_view
         n = gr.num_nodes
         start, goal = self._start, self.goal
         hfun = self.heuristic

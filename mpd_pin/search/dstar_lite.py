@@ -106,13 +106,13 @@ class _DStarLiteCore(Planner):
 
         Returns the number of edge costs read.
         """
-        gr = self.graph
+        sptr, sdst, scost = self._succ
         g, gh = self._g, self._gh
-        a, b = gr._sptr[s], gr._sptr[s + 1]
+        a, b = sptr[s], sptr[s + 1]
         best = _INF
         bh = 0
         bp = -1
-        for v, c in zip(gr._sdst[a:b], gr._scost[a:b], strict=True):
+        for v, c in zip(sdst[a:b], scost[a:b], strict=True):
             t = c + g[v]
             if t < best:
                 best = t
@@ -144,7 +144,7 @@ class _DStarLiteCore(Planner):
     def _compute_shortest_path(self) -> None:
         """ComputeShortestPath of optimized D* Lite, with pointer bookkeeping."""
         gr = self.graph
-        pptr, psrc, pcost = gr._pptr, gr._psrc, gr._pcost
+        pptr, psrc, pcost = gr.predecessor_view
         g, gh, rhs, rh, ptr = self._g, self._gh, self._rhs, self._rh, self._ptr
         qkey, heap = self._qkey, self._heap
         start = self._start
@@ -248,12 +248,12 @@ class _DStarLiteCore(Planner):
         """
         self._sync_start()
         gr = self.graph
-        k = gr._set_cost(u, v, cost)  # validates
+        k = gr.set_cost(u, v, cost)  # validates; k indexes the successor view
         u = int(u)
         v = int(v)
         if u == self.goal:
             return
-        c = gr._scost[k]
+        c = self._succ.cost[k]
         t = c + self._g[v]
         nh = self._gh[v] + 1
         r = self._rhs[u]
@@ -343,7 +343,7 @@ class DStarLite(_DStarLiteCore):
 
     def _extract(self) -> list[int]:
         gr = self.graph
-        sptr, sdst, scost = gr._sptr, gr._sdst, gr._scost
+        sptr, sdst, scost = gr.successor_view
         g, gh = self._g, self._gh
         goal = self.goal
         s = self._start

@@ -23,6 +23,10 @@ CASES = {
         mp.DCMotor(R=1.0, L=0.5, Kt=0.01, Ke=0.02, B=0.1, J=0.01, gear_ratio=5.0, v_max=30.0),
         40.0, 4.0, False, 1.0, 5e-3,
     ),
+    "3link-servo-stiff-saturated": (  # L/R = 0.5 ms at dt = 5 ms: exponential current step
+        "planar_3link", mp.DCMotor(**{**mp.SERVO_MOTOR.__dict__, "v_max": 6.0}), 200.0, 10.0, True,
+        1.0, 5e-3,
+    ),
     "panda-ff-saturated": (
         "panda", mp.DCMotor(**{**PANDA_MOTOR.__dict__, "v_max": 12.0}), 20.0, 1.0, True, 1.0, 5e-3
     ),

@@ -248,3 +248,67 @@ def test_configuration_checks():
         arm.gravity([0.0, 0.0, 0.0])
     with pytest.raises(ValueError, match="NaN"):
         arm.mass_matrix([0.0, float("nan")])
+
+
+def _loader_model(name):
+    from example_robot_data import robots_loader
+
+    return robots_loader.loader(name).robot.model
+
+
+def test_continuous_joints_are_planned_as_angles():
+    """Kinova Gen2 (three continuous joints) loads with one angle per joint, limits [−π, π],
+    and the same rigid-body terms as Pinocchio's own (cos, sin) model at that angle."""
+    import pinocchio as pin
+
+    arm = mp.Arm.from_example_robot_data("kinova")
+    assert arm.nq == arm.model.nv == 6
+    assert arm.continuous_joints == ("j2s6s200_joint_1", "j2s6s200_joint_4", "j2s6s200_joint_6")
+    ref = _loader_model("kinova")
+    assert ref.nq > ref.nv  # the loader's model keeps cos/sin coordinates
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        q = rng.uniform(arm.lower_limits, arm.upper_limits)
+        qr = np.empty(ref.nq)
+        for k, jname in enumerate(arm.joint_names):
+            joint = ref.joints[ref.getJointId(jname)]
+            if joint.nq == 2:
+                qr[joint.idx_q : joint.idx_q + 2] = np.cos(q[k]), np.sin(q[k])
+            else:
+                qr[joint.idx_q] = q[k]
+            if jname in arm.continuous_joints:
+                j = arm.model.getJointId(jname)
+                assert arm.model.lowerPositionLimit[arm.model.joints[j].idx_q] == -math.pi
+                assert arm.model.upperPositionLimit[arm.model.joints[j].idx_q] == math.pi
+        data = ref.createData()
+        np.testing.assert_allclose(arm.mass_matrix(q), pin.crba(ref, data, qr), atol=1e-12)
+        np.testing.assert_allclose(arm.gravity(q), pin.computeGeneralizedGravity(ref, data, qr),
+                                   atol=1e-10)
+
+
+def test_fixed_base_urdf_loads_fixed_base_although_its_loader_adds_a_free_flyer():
+    """so100's example-robot-data loader adds a free-flyer the URDF does not have; the arm
+    is fixed-base (gripper locked) and its D(q) is the loader model's arm block."""
+    import pinocchio as pin
+
+    arm = mp.Arm.from_example_robot_data("so100")
+    assert arm.joint_names == ["shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex",
+                               "wrist_roll"]
+    ref = _loader_model("so100")
+    assert ref.joints[1].shortname() == "JointModelFreeFlyer"
+    q = np.array([0.3, -0.5, 0.8, 0.2, -1.0])
+    qr = pin.neutral(ref)
+    idx = [ref.joints[ref.getJointId(n)].idx_v for n in arm.joint_names]
+    for k, n in enumerate(arm.joint_names):
+        qr[ref.joints[ref.getJointId(n)].idx_q] = q[k]
+    M = pin.crba(ref, ref.createData(), qr)
+    M = np.triu(M) + np.triu(M, 1).T
+    np.testing.assert_allclose(arm.mass_matrix(q), M[np.ix_(idx, idx)], atol=1e-12)
+
+
+def test_floating_joint_urdf_is_refused():
+    xml = mp.planar_arm_urdf([0.5, 0.5], [1.0, 1.0]).replace(
+        '<joint name="joint1" type="revolute">', '<joint name="joint1" type="floating">', 1)
+    assert 'type="floating"' in xml
+    with pytest.raises(ValueError, match="floating joint"):
+        mp.Arm.from_urdf(xml)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -74,6 +75,64 @@ def _validate_urdf(xml: str, where: str) -> None:
         raise ValueError(f"URDF in {where} has no movable joint (revolute or prismatic)")
 
 
+def _revolute_for_continuous(xml: str) -> tuple[str, tuple[str, ...]]:
+    """Turn every ``continuous`` joint into a ``revolute`` one limited to [−π, π] rad.
+
+    mpd_pin plans in joint angles, one value per joint (docs/design.md §1): a continuous
+    joint's Pinocchio representation (cos θ, sin θ) would break ``nq == nv`` everywhere.
+    Its dynamics are those of a revolute joint; [−π, π] covers every orientation once.
+    Effort and velocity limits are kept. Returns the new XML and the converted names.
+    """
+    from lxml import etree
+
+    root = etree.fromstring(xml.encode("utf-8"))
+    names = []
+    for joint in root.iter("joint"):
+        if joint.get("type") != "continuous":
+            continue
+        joint.set("type", "revolute")
+        limit = joint.find("limit")
+        if limit is None:
+            limit = etree.SubElement(joint, "limit", effort="0", velocity="0")
+        limit.set("lower", repr(-math.pi))
+        limit.set("upper", repr(math.pi))
+        names.append(joint.get("name"))
+    if not names:
+        return xml, ()
+    return etree.tostring(root, encoding="unicode"), tuple(names)
+
+
+def _rename_joints_named_like_links(xml: str) -> str:
+    """Rename a joint that has the name of a link to ``<name>_joint``.
+
+    Pinocchio cannot lock such a joint (``buildReducedModel``: "several frames match"),
+    as in example-robot-data's so100 (joint and link "gripper"). Mimic references follow.
+    """
+    from lxml import etree
+
+    root = etree.fromstring(xml.encode("utf-8"))
+    links = {link.get("name") for link in root.iter("link")}
+    renamed = {}
+    for joint in root.iter("joint"):
+        name = joint.get("name")
+        if name in links:
+            renamed[name] = f"{name}_joint"
+            joint.set("name", renamed[name])
+    if not renamed:
+        return xml
+    for mimic in root.iter("mimic"):
+        if mimic.get("joint") in renamed:
+            mimic.set("joint", renamed[mimic.get("joint")])
+    return etree.tostring(root, encoding="unicode")
+
+
+def _has_floating_joint(xml: str) -> bool:
+    from lxml import etree
+
+    root = etree.fromstring(xml.encode("utf-8"))
+    return any(j.get("type") == "floating" for j in root.iter("joint"))
+
+
 def _check_srdf_links(srdf_path: str, model: pin.Model) -> None:
     """ValueError if the SRDF is malformed or disables pairs of links the model lacks
     (Pinocchio would silently keep those pairs)."""
@@ -111,6 +170,8 @@ class Arm:
     srdf_path: str | None = None
     urdf_xml: str | None = None
     q_reference: np.ndarray | None = None
+    #: joints that are ``continuous`` in the URDF, planned as revolute in [−π, π] rad
+    continuous_joints: tuple[str, ...] = ()
     data: pin.Data = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -140,8 +201,14 @@ class Arm:
         package_dirs: Sequence[str] | None = None,
         srdf_path: str | os.PathLike | None = None,
         name: str | None = None,
+        strict_srdf: bool = True,
     ) -> Arm:
         """Load an arm from a URDF file path or an XML string.
+
+        ``continuous`` joints are planned as revolute joints in [−π, π] rad
+        (:attr:`continuous_joints` lists them); a URDF with a ``floating`` joint is refused.
+        ``strict_srdf=False`` ignores SRDF pairs naming links the URDF lacks (as Pinocchio
+        does) instead of refusing the SRDF: used for the data example-robot-data ships.
 
         ``package_dirs`` are searched for ``package://`` meshes. With ``srdf_path``
         the collision model gets every pair of its geometries, minus the SRDF's
@@ -152,6 +219,9 @@ class Arm:
         xml, path = _read_urdf_text(path_or_xml)
         where = str(path) if path is not None else "the URDF string"
         _validate_urdf(xml, where)
+        if _has_floating_joint(xml):
+            raise ValueError(f"URDF in {where} has a floating joint: a floating base is not an arm")
+        xml, continuous = _revolute_for_continuous(xml)
         dirs = list(package_dirs or [])
         if path is not None:
             dirs.append(str(path.parent))
@@ -167,7 +237,8 @@ class Arm:
             srdf_path = str(srdf_path)
             if not Path(srdf_path).is_file():
                 raise ValueError(f"SRDF file not found: {srdf_path!r}")
-            _check_srdf_links(srdf_path, model)
+            if strict_srdf:
+                _check_srdf_links(srdf_path, model)
             collision.addAllCollisionPairs()
             try:
                 pin.removeCollisionPairs(model, collision, srdf_path)
@@ -180,6 +251,7 @@ class Arm:
             name=name or model.name or "arm",
             srdf_path=srdf_path,
             urdf_xml=xml,
+            continuous_joints=continuous,
         )
 
     @classmethod
@@ -195,10 +267,27 @@ class Arm:
             known = ", ".join(sorted(robots_loader.ROBOTS))
             raise ValueError(f"unknown example-robot-data robot {name!r}; known: {known}")
         loader = robots_loader.loader(name)
-        robot = loader.robot
-        full = robot.model
-        if full.joints[1].shortname() == "JointModelFreeFlyer":
+        if not getattr(loader, "urdf_filename", ""):
+            raise ValueError(f"example-robot-data robot {name!r} is described by SDF, not URDF")
+        xml = _rename_joints_named_like_links(Path(loader.df_path).read_text(encoding="utf-8"))
+        if _has_floating_joint(xml):
             raise ValueError(f"example-robot-data robot {name!r} is floating-base, not an arm")
+        # Built from the URDF itself: its loader may add a free-flyer root (e.g. so100) that
+        # the URDF does not have, and continuous joints become revolute (_revolute_for_...).
+        # Rotor parameters of the SRDF are not loaded: rotor inertia belongs to the motors.
+        base = cls.from_urdf(
+            xml,
+            package_dirs=[os.path.join(loader.model_path, "../..")],
+            srdf_path=getattr(loader, "srdf_path", None),
+            name=name,
+            strict_srdf=False,
+        )
+        full = base.model
+        q0 = pin.neutral(full)
+        if base.srdf_path is not None:
+            pin.loadReferenceConfigurations(full, base.srdf_path, False)
+            if loader.ref_posture in full.referenceConfigurations:
+                q0 = np.array(full.referenceConfigurations[loader.ref_posture], dtype=float)
         names = list(full.names)
         to_lock = [
             j
@@ -209,15 +298,14 @@ class Arm:
             missing = set(lock) - set(names)
             if missing:
                 raise ValueError(f"cannot lock unknown joints {sorted(missing)} of {name!r}")
-        q0 = np.asarray(robot.q0, dtype=float)
         if to_lock:
             model, (collision, visual) = pin.buildReducedModel(
-                full, [robot.collision_model, robot.visual_model], to_lock, q0
+                full, [base.collision_model, base.visual_model], to_lock, q0
             )
             keep = [names[j] for j in range(1, full.njoints) if j not in to_lock]
             q_ref = np.array([q0[full.joints[full.getJointId(n)].idx_q] for n in keep])
         else:
-            model, collision, visual = full, robot.collision_model, robot.visual_model
+            model, collision, visual = full, base.collision_model, base.visual_model
             q_ref = q0
         model.name = name
         return cls(
@@ -225,8 +313,9 @@ class Arm:
             collision_model=collision,
             visual_model=visual,
             name=name,
-            srdf_path=getattr(loader, "srdf_path", None),
+            srdf_path=base.srdf_path,
             q_reference=q_ref,
+            continuous_joints=tuple(n for n in base.continuous_joints if model.existJointName(n)),
         )
 
     # --------------------------------------------------------------- properties

@@ -431,7 +431,7 @@ def test_stiff_servo_runs_at_5ms(servo_drive):
 @pytest.mark.parametrize("tau_e", [5e-5, 5e-4, 1.9e-3])
 def test_stiff_current_matches_resolved_rk4(tau_e):
     """E⁺ per joint at dt = 5 ms within 0.1 % of classical RK4 resolved at dt·R/L ≤ 0.1
-    (docs/design.md §3b), for electrical time constants L/R of 0.05 to 1.9 ms (dt·R/L = 100 to
+    (docs/design.md §3e), for electrical time constants L/R of 0.05 to 1.9 ms (dt·R/L = 100 to
     2.6). One joint keeps a slow motor, so the step is partitioned (RK4 current beside
     exponential ones).
     Measured: ≤ 3.6e-4 relative (joint 2), ≤ 1e-4 on the others."""

@@ -74,7 +74,7 @@ class DCMotor:
 PAPER_MOTOR = DCMotor(R=1.0, L=0.5, Kt=0.01, Ke=0.02, B=0.1, J=0.01, gear_ratio=1.0)
 
 #: A realistic small servo (Kt = Ke in SI units) behind a 100:1 gearbox, 24 V supply.
-#: Its electrical time constant L/R = 0.5 ms needs dt ≤ 1 ms with RK4.
+#: Its electrical time constant L/R = 0.5 ms is stiff at a 5 ms step (docs/design.md §3e).
 SERVO_MOTOR = DCMotor(R=2.0, L=1e-3, Kt=0.03, Ke=0.03, B=1e-6, J=5e-6, gear_ratio=100.0, v_max=24.0)
 
 

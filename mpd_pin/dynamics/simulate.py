@@ -84,7 +84,7 @@ def step_count(duration: float, dt: float) -> int:
 
 
 #: A joint whose electrical pole satisfies dt·R/L above this gets the exponential current
-#: update of :class:`CurrentStep`; at or below it, classical RK4 (docs/design.md §3b). 2.5 is
+#: update of :class:`CurrentStep`; at or below it, classical RK4 (docs/design.md §3e). 2.5 is
 #: just inside RK4's real-axis stability limit (2.785), so every case classical RK4 could
 #: integrate before is integrated exactly as before; measured on a planar 3-link arm with a
 #: 100:1 servo, classical RK4 at dt·R/L = 1–2.4 was closer to a resolved reference (≤ 7e-5
@@ -101,7 +101,7 @@ class CurrentStep:
     h·R/L ≤ :data:`STIFF_LIMIT` (``stiff`` False) use classical RK4 unchanged. For the
     others, every RK4 stage first gets its (q, q̇) from the classical stage formula,
     then its current from the variation-of-constants formula with N interpolated
-    linearly between the step start and the stage (docs/design.md §3b):
+    linearly between the step start and the stage (docs/design.md §3e):
 
         i(t + c h) = e^{c z} i(t) + c h [φ₁(c z) N(t) + φ₂(c z) (N_c − N(t))],
         φ₁(z) = (e^z − 1)/z,  φ₂(z) = (e^z − 1 − z)/z²,  z = λ h,

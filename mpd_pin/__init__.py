@@ -37,6 +37,7 @@ _LAZY = {
     "ideal_edge_energy": "dynamics",
     "quintic": "dynamics",
     "simulate_edge": "dynamics",
+    "sized_motors": "dynamics",
     "MpdPinError": "errors",
     "NoPathError": "errors",
 }

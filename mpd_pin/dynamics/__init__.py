@@ -16,9 +16,10 @@ from .simulate import (
     simulate_edge,
     step_count,
 )
+from .sizing import sized_motor, sized_motors
 
 __all__ = [
     "DCMotor", "Drive", "EdgeSimulation", "EnergyCost", "PAPER_MOTOR", "SERVO_MOTOR",
     "edge_energies", "ideal_edge_energies", "ideal_edge_energy", "quintic", "simulate_edge",
-    "step_count",
+    "sized_motor", "sized_motors", "step_count",
 ]

@@ -107,3 +107,22 @@ def test_batch_bad_input(arms):
         mp.Drive(arms["planar_3link"], [mp.PAPER_MOTOR] * 2, kp=1.0, kd=0.1)
     with pytest.raises(ValueError, match="kp"):
         mp.Drive(arms["planar_3link"], mp.PAPER_MOTOR, kp=[1.0, 2.0], kd=0.1)
+
+
+@pytest.mark.parametrize("case", ["3link-pd-saturated", "3link-servo-stiff-saturated"])
+def test_edge_outcomes_equal_the_single_edge_series(arms, case):
+    """End error, end velocity and peak joint torque of the batch equal those read off
+    simulate_edge's time series (q(T) − q¹, q̇(T), max |n Kt i| over the samples)."""
+    arm_name, motor, kp, kd, ff, T, dt = CASES[case]
+    drive = mp.Drive(arms[arm_name], motor, kp=kp, kd=kd, feedforward=ff)
+    Q0, Q1 = _random_edges(arms[arm_name], np.random.default_rng(5), 6, 0.6)
+    out = mp.dynamics.edge_outcomes(drive, Q0, Q1, T, dt, chunk=4)
+    np.testing.assert_array_equal(out.energy, mp.edge_energies(drive, Q0, Q1, T, dt))
+    for k in range(len(Q0)):
+        sim = mp.simulate_edge(drive, Q0[k], Q1[k], T, dt)
+        np.testing.assert_allclose(out.end_error[k], sim.q[-1] - Q1[k], rtol=1e-7, atol=1e-10)
+        np.testing.assert_allclose(out.end_velocity[k], sim.v[-1], rtol=1e-7, atol=1e-9)
+        peak = np.abs(sim.i).max(axis=0) * drive.torque_per_amp
+        np.testing.assert_allclose(out.peak_torque[k], peak, rtol=1e-8)
+    if "pd-saturated" in case:  # PD alone behind a saturated supply lags: it does not arrive
+        assert np.abs(out.end_error).max() > 0.01

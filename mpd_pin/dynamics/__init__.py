@@ -8,8 +8,10 @@ thousands at once (``pin.abaInParallel``) with identical results row by row.
 from .cost import EnergyCost
 from .motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
 from .simulate import (
+    EdgeOutcomes,
     EdgeSimulation,
     edge_energies,
+    edge_outcomes,
     ideal_edge_energies,
     ideal_edge_energy,
     quintic,
@@ -19,7 +21,20 @@ from .simulate import (
 from .sizing import sized_motor, sized_motors
 
 __all__ = [
-    "DCMotor", "Drive", "EdgeSimulation", "EnergyCost", "PAPER_MOTOR", "SERVO_MOTOR",
-    "edge_energies", "ideal_edge_energies", "ideal_edge_energy", "quintic", "simulate_edge",
-    "sized_motor", "sized_motors", "step_count",
+    "DCMotor",
+    "Drive",
+    "edge_energies",
+    "edge_outcomes",
+    "EdgeOutcomes",
+    "EdgeSimulation",
+    "EnergyCost",
+    "ideal_edge_energies",
+    "ideal_edge_energy",
+    "PAPER_MOTOR",
+    "quintic",
+    "SERVO_MOTOR",
+    "simulate_edge",
+    "sized_motor",
+    "sized_motors",
+    "step_count",
 ]

@@ -42,6 +42,8 @@ __all__ = [
     "ideal_edge_energy",
     "ideal_edge_energies",
     "step_count",
+    "EdgeOutcomes",
+    "edge_outcomes",
     "STIFF_LIMIT",
     "CurrentStep",
     "current_step",
@@ -491,6 +493,7 @@ def _integrate_batch(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: float, N: 
             np.clip(Vs, -vmax_s, vmax_s, out=Vs)
         return (Vs - ke_s * v) * cs.inv_L
 
+    peak_i = np.abs(X[2])
     for n in range(N):
         j = 2 * n
         if cs.any:
@@ -519,9 +522,73 @@ def _integrate_batch(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: float, N: 
         X += k2
         if cs.any:
             X[2][:, sj] = cs.full(i0, n0, forcing(j + 2, X))
+        np.abs(X[2], out=tmp)
+        np.maximum(peak_i, tmp, out=peak_i)
     if not (np.all(np.isfinite(X[3])) and np.all(np.isfinite(X[0]))):
         raise ValueError("integration diverged on some edges; reduce dt or the gains")
-    return X[3].copy(), X[4].copy()
+    return X[3].copy(), X[4].copy(), X[0] - Q1, X[1].copy(), peak_i * drive.torque_per_amp
+
+
+@dataclass(frozen=True)
+class EdgeOutcomes:
+    """What K simulated edges did, one row per edge (all arrays (K, nq)).
+
+    energy: E⁺ per joint (J); net_energy: E per joint (J); end_error: q(T) − q¹ (rad);
+    end_velocity: q̇(T) (rad/s); peak_torque: max over the RK4 step points of the motor
+    torque at the joint, |n Kt i| (N·m). The feasibility rules of docs/design.md §3g read
+    the last three: a motion that does not arrive, or needs more torque than the joint
+    may take, is not an edge.
+    """
+
+    energy: np.ndarray
+    net_energy: np.ndarray
+    end_error: np.ndarray
+    end_velocity: np.ndarray
+    peak_torque: np.ndarray
+
+
+def edge_outcomes(
+    drive: Drive,
+    Q0,
+    Q1,
+    duration: float | np.ndarray = 1.0,
+    dt: float = 5e-3,
+    *,
+    chunk: int = 1024,
+    threads: int | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> EdgeOutcomes:
+    """Simulate the K edges ``Q0[k] → Q1[k]`` together; see :func:`edge_energies`."""
+    Q0, Q1 = _check_batch(drive, Q0, Q1)
+    K = Q0.shape[0]
+    threads = int(threads or os.cpu_count() or 1)
+    durations = (
+        np.broadcast_to(np.asarray(duration, dtype=float), (K,))
+        if np.ndim(duration) == 0
+        else np.asarray(duration, dtype=float)
+    )
+    if durations.shape != (K,):
+        raise ValueError(
+            f"duration must be a scalar or one value per edge ({K}), got shape {durations.shape}"
+        )
+    out = [np.zeros((K, drive.nq)) for _ in range(5)]
+    groups: dict[tuple[float, int], list[int]] = {}
+    for k, T in enumerate(durations.tolist()):
+        N = step_count(T, dt)
+        groups.setdefault((T, N), []).append(k)
+    done = 0
+    for (T, N), idx in groups.items():
+        idx = np.asarray(idx)
+        for start in range(0, idx.size, chunk):
+            sel = idx[start : start + chunk]
+            for arr, part in zip(
+                out, _integrate_batch(drive, Q0[sel], Q1[sel], T, N, threads), strict=True
+            ):
+                arr[sel] = part
+            done += sel.size
+            if progress is not None:
+                progress(done)
+    return EdgeOutcomes(*out)
 
 
 def edge_energies(
@@ -543,39 +610,11 @@ def edge_energies(
     one value per edge (each a whole multiple of ``dt``; edges are grouped by
     step count). ``net=True`` also returns E (J). ``progress(k)`` is called with
     the number of edges finished after each chunk of at most ``chunk`` edges.
+    :func:`edge_outcomes` returns the end states and peak torques as well.
     """
-    Q0, Q1 = _check_batch(drive, Q0, Q1)
-    K = Q0.shape[0]
-    threads = int(threads or os.cpu_count() or 1)
-    durations = (
-        np.broadcast_to(np.asarray(duration, dtype=float), (K,))
-        if np.ndim(duration) == 0
-        else np.asarray(duration, dtype=float)
-    )
-    if durations.shape != (K,):
-        raise ValueError(
-            f"duration must be a scalar or one value per edge ({K}), got shape {durations.shape}"
-        )
-    Ep = np.zeros((K, drive.nq))
-    En = np.zeros((K, drive.nq))
-    if K == 0:
-        return (Ep, En) if net else Ep
-    groups: dict[tuple[float, int], list[int]] = {}
-    for k, T in enumerate(durations.tolist()):
-        N = step_count(T, dt)
-        groups.setdefault((T, N), []).append(k)
-    done = 0
-    for (T, N), idx in groups.items():
-        idx = np.asarray(idx)
-        for start in range(0, idx.size, chunk):
-            sel = idx[start : start + chunk]
-            ep, en = _integrate_batch(drive, Q0[sel], Q1[sel], T, N, threads)
-            Ep[sel] = ep
-            En[sel] = en
-            done += sel.size
-            if progress is not None:
-                progress(done)
-    return (Ep, En) if net else Ep
+    res = edge_outcomes(drive, Q0, Q1, duration, dt, chunk=chunk, threads=threads,
+                        progress=progress)
+    return (res.energy, res.net_energy) if net else res.energy
 
 
 # ------------------------------------------------------------------------ ideal tracking

@@ -2,6 +2,9 @@
 
     mpd-pin scenarios                       list the built-in scenarios
     mpd-pin run NAME|FILE --out DIR         plan a scenario, write result.json, plots, replay.html
+        [--seed N] [--planner NAME]         (planners: mpd_pin.search.PLANNERS, listed by --help)
+
+Scenario kinds are dispatched by :mod:`mpd_pin.app.kinds`; this module knows none of them.
 
 Bad input (unknown scenario, malformed TOML or URDF, unknown keys, start or goal
 in collision, no path) prints one line on stderr and exits with status 2 (or 3
@@ -24,13 +27,14 @@ __all__ = ["main"]
 
 
 def _describe(path: Path) -> tuple[str, str]:
+    from .kinds import scenario_kind
     from .scenario import load_scenario_data
 
     try:
         data = load_scenario_data(path)
     except ConfigError as exc:
         return "?", f"(unreadable: {exc})"
-    return str(data.get("kind", "energy")), str(data.get("description", ""))
+    return scenario_kind(data), str(data.get("description", ""))
 
 
 def cmd_scenarios(_: argparse.Namespace) -> int:
@@ -43,45 +47,45 @@ def cmd_scenarios(_: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .scenario import load_scenario_data, parse_energy_scenario, resolve_scenario
+    from .kinds import load_scenario, run_scenario, summary_line
 
-    path = resolve_scenario(args.scenario)
-    data = load_scenario_data(path)
+    scn = load_scenario(args.scenario, seed=args.seed, planner=args.planner)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} exists and is not a directory")
-    if data.get("kind", "energy") == "dynamic2link":
-        from ..twolink.run import run_dynamic_scenario
-
-        result = run_dynamic_scenario(data, out, seed=args.seed, show_progress=not args.quiet)
-        print(f"{result.get('name', path.stem)}: D* path {result['path_length_dstar']:.4f} m, "
-              f"PSO path {result['path_length_pso']:.4f} m -> {out}/result.json")
-        return 0
-    from .runner import run_energy_scenario
-
-    scn = parse_energy_scenario(data, source=str(path), base_dir=path.parent, seed=args.seed)
-    result = run_energy_scenario(scn, out, show_progress=not args.quiet,
-                                 cache=Path(args.cache) if args.cache else None,
-                                 replay=not args.no_replay)
-    per_joint = ", ".join(f"{e:.4g}" for e in result["energy_per_joint"])
-    print(f"{scn.name}: {result['total_energy']:.6g} J ({per_joint}) over "
-          f"{result['path']['length_nodes']} nodes; roadmap {result['roadmap']['num_nodes']} "
-          f"nodes -> {out}/result.json")
+    result = run_scenario(scn, out, show_progress=not args.quiet,
+                          cache=Path(args.cache) if args.cache else None,
+                          replay=not args.no_replay)
+    print(summary_line(scn, result, out))
     return 0
 
 
+def _planners_help() -> str:
+    from ..search.registry import DEFAULT_PLANNER, PLANNERS
+
+    names = ", ".join(f"{n} ({c.__name__})" for n, c in PLANNERS.items())
+    return (f"planners (--planner, or [planner] algorithm in an energy scenario; default "
+            f"{DEFAULT_PLANNER}): {names}")
+
+
 def build_parser() -> argparse.ArgumentParser:
+    from ..search.registry import PLANNERS
+
     parser = argparse.ArgumentParser(
         prog="mpd-pin",
         description="Energy-optimal, collision-free motion planning for robot arms (MPD* Lite).",
+        epilog=_planners_help(),
     )
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("scenarios", help="list the built-in scenarios")
     p.set_defaults(func=cmd_scenarios)
-    p = sub.add_parser("run", help="plan a scenario and write result.json, plots and replay.html")
+    p = sub.add_parser("run", help="plan a scenario and write result.json, plots and replay.html",
+                       epilog=_planners_help())
     p.add_argument("scenario", help="built-in scenario name or path to a .toml file")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--seed", type=int, default=None, help="override the scenario's random seed")
+    p.add_argument("--planner", choices=list(PLANNERS), default=None,
+                   help="override [planner] algorithm of an energy scenario")
     p.add_argument("--cache", default=None, help="roadmap .npz to reuse (or create)")
     p.add_argument("--no-replay", action="store_true", help="skip the meshcat replay.html")
     p.add_argument("--quiet", action="store_true", help="no progress bars")

@@ -50,32 +50,29 @@ A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
     goal = [2.4, -0.3, -0.2]
 
 Scenarios of ``kind = "dynamic2link"`` (paper 002) are read by
-:mod:`mpd_pin.twolink`.
+:mod:`mpd_pin.twolink.scenario`; :mod:`mpd_pin.app.kinds` maps each kind to its parser
+and runner (:func:`~mpd_pin.app.kinds.load_scenario` reads a file of any kind).
 """
 
 from __future__ import annotations
 
-import contextlib
 import math
-import os
-import sys
-import tempfile
 import tomllib
-from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
-from ..arm.builtin import BUILTIN_ARMS, builtin_arm
 from ..arm.model import Arm
 from ..dynamics.motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
 from ..planning.roadmap import RoadmapOptions
 from ..search.registry import DEFAULT_PLANNER, PLANNERS
 from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
+from .arm_source import arm_from_table
 from .config import ConfigError, Table
+from .kinds import KINDS, scenario_kind
 
 __all__ = [
     "EnergyScenario",
@@ -86,12 +83,13 @@ __all__ = [
 ]
 
 MOTOR_PRESETS = {"paper": PAPER_MOTOR, "servo": SERVO_MOTOR}
-KINDS = ("energy", "dynamic2link")
 
 
 @dataclass
 class EnergyScenario:
     """A parsed paper-000 scenario: everything needed to plan, nothing built yet but the arm."""
+
+    kind: ClassVar[str] = "energy"
 
     name: str
     description: str
@@ -147,68 +145,13 @@ def load_scenario_data(path: Path) -> dict[str, Any]:
         raise ConfigError(f"malformed TOML in {str(path)!r}: {exc}") from None
     except OSError as exc:
         raise ConfigError(f"cannot read scenario {str(path)!r}: {exc.strerror}") from None
-    kind = data.get("kind", "energy")
+    kind = scenario_kind(data)
     if kind not in KINDS:
         raise ConfigError(f"kind: {kind!r} is not one of {list(KINDS)}")
     return data
 
 
 # --------------------------------------------------------------------------- parts
-@contextlib.contextmanager
-def _native_stderr(captured: list[str]) -> Iterator[None]:
-    """Send file descriptor 2 (what C++ libraries such as urdfdom print) to a temporary file
-    for the duration; its text is appended to ``captured``."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    with tempfile.TemporaryFile(mode="w+b") as tmp:
-        os.dup2(tmp.fileno(), 2)
-        try:
-            yield
-        finally:
-            sys.stderr.flush()
-            os.dup2(saved, 2)
-            os.close(saved)
-            tmp.seek(0)
-            captured.append(tmp.read().decode("utf-8", errors="replace"))
-
-
-def _load_urdf(path: Path) -> Arm:
-    """Arm.from_urdf with urdfdom's own messages folded into the one-line error (and
-    passed on to stderr when loading succeeds)."""
-    captured: list[str] = []
-    try:
-        with _native_stderr(captured):
-            arm = Arm.from_urdf(path)
-    except ValueError as exc:
-        errors = [
-            " ".join(line.split()[1:])
-            for line in "".join(captured).splitlines()
-            if line.strip().startswith("Error:")
-        ]
-        detail = f" (urdfdom: {'; '.join(errors)})" if errors else ""
-        raise ConfigError(f"{exc}{detail}") from None
-    if "".join(captured).strip():
-        sys.stderr.write("".join(captured))
-    return arm
-
-
-def _arm(t: Table, base: Path | None) -> Arm:
-    choices = [k for k in ("builtin", "urdf", "example_robot_data") if t.has(k)]
-    if len(choices) != 1:
-        raise ConfigError(f"{t.path}: give exactly one of builtin, urdf, example_robot_data")
-    kind = choices[0]
-    if kind == "builtin":
-        arm = builtin_arm(t.string("builtin", choices=BUILTIN_ARMS))
-    elif kind == "urdf":
-        rel = Path(t.string("urdf"))
-        path = rel if rel.is_absolute() or base is None else base / rel
-        arm = _load_urdf(path)
-    else:
-        arm = Arm.from_example_robot_data(t.string("example_robot_data"))
-    t.done()
-    return arm
-
-
 MOTOR_CONSTANTS = ("R", "L", "Kt", "Ke", "B", "J", "gear_ratio", "v_max")
 
 
@@ -423,7 +366,7 @@ def parse_energy_scenario(
         raise ConfigError(f"kind: expected 'energy', got {kind!r}")
     name = top.string("name", Path(source).stem if source else "scenario")
     description = top.string("description", "")
-    arm = _arm(top.table("arm", required=True), base_dir)
+    arm = arm_from_table(top.table("arm", required=True), base_dir)
     motor = _motors(top, arm.nq)
     ctl = top.table("controller")
     kp = _gain(ctl, "kp", 40.0, arm.nq)

@@ -53,13 +53,13 @@ samples (m).
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from ..app.timing import PhaseClock
 from ..arm.model import Arm
 from ..errors import NoPathError
 from .fcs import FreeCartesianSpace, Grid
@@ -402,44 +402,18 @@ def execute_dstar(
     )
 
 
-def plan_dynamic(
+def _smooth(
     problem: DynamicProblem,
-    *,
-    seed: int | None = 0,
-    progress: Callable[[str, int, int | None], None] | None = None,
-) -> DynamicPlanResult:
-    """Plan the arm's motion: D* with stop/return executed per sample, then PSO smoothing.
-
-    ``seed`` seeds the PSO's ``numpy.random.Generator`` (same seed → same
-    result). ``progress(stage, done, total)`` is called as work advances.
-    Raises ValueError for unreachable or colliding start/goal, and
-    :class:`TrappedError` when the arm cannot be kept safe.
-    """
-    timings: dict[str, float] = {}
-    t0 = time.perf_counter()
-    kin = TwoLinkKinematics(problem.arm)
-    checker = SampledCollisionChecker(
-        problem.arm, problem.scene, margin=problem.margin, num_threads=problem.num_threads
-    )
-    fcs = FreeCartesianSpace(kin, problem.grid, checker)
-    start_state, goal_states = _resolve_endpoints(problem, kin, fcs)
-    timings["setup"] = time.perf_counter() - t0
-
-    t0 = time.perf_counter()
-    dmotion = execute_dstar(
-        fcs,
-        start_state,
-        goal_states,
-        max_joint_step=problem.joint_step_limit,
-        max_samples=problem.max_samples,
-        lookahead=problem.lookahead,
-        switch_penalty=problem.switch_penalty,
-        substeps=problem.substeps,
-        progress=(lambda k: progress("dstar", k, None)) if progress else None,
-    )
-    timings["dstar"] = time.perf_counter() - t0
-
-    t0 = time.perf_counter()
+    kin: TwoLinkKinematics,
+    fcs: FreeCartesianSpace,
+    checker: SampledCollisionChecker,
+    dmotion: DStarMotion,
+    goal_states: list[int],
+    seed: int | None,
+    progress: Callable[[str, int, int | None], None] | None,
+) -> tuple[PSOResult | None, ViaPointSmoother | None, SmoothedMotion, bool]:
+    """PSO over via points of the D* motion (paper 002): (PSO result, smoother, the motion
+    executed, whether PSO improved on D*). Motions of fewer than 3 samples are kept as is."""
     dstar_as_motion = SmoothedMotion(
         knots=np.arange(dmotion.num_samples),
         points=dmotion.points.copy(),
@@ -481,7 +455,47 @@ def plan_dynamic(
                 raise RuntimeError(f"PSO's best motion failed its re-check: {cand.reason}")
             motion = cand
             improved = True
-    timings["pso"] = time.perf_counter() - t0
+    return pso_res, smoother, motion, improved
+
+
+def plan_dynamic(
+    problem: DynamicProblem,
+    *,
+    seed: int | None = 0,
+    progress: Callable[[str, int, int | None], None] | None = None,
+    clock: PhaseClock | None = None,
+) -> DynamicPlanResult:
+    """Plan the arm's motion: D* with stop/return executed per sample, then PSO smoothing.
+
+    ``seed`` seeds the PSO's ``numpy.random.Generator`` (same seed → same
+    result). ``progress(stage, done, total)`` is called as work advances.
+    Raises ValueError for unreachable or colliding start/goal, and
+    :class:`TrappedError` when the arm cannot be kept safe.
+    """
+    clock = PhaseClock() if clock is None else clock
+    with clock.phase("setup"):
+        kin = TwoLinkKinematics(problem.arm)
+        checker = SampledCollisionChecker(
+            problem.arm, problem.scene, margin=problem.margin, num_threads=problem.num_threads
+        )
+        fcs = FreeCartesianSpace(kin, problem.grid, checker)
+        start_state, goal_states = _resolve_endpoints(problem, kin, fcs)
+    with clock.phase("dstar"):
+        dmotion = execute_dstar(
+            fcs,
+            start_state,
+            goal_states,
+            max_joint_step=problem.joint_step_limit,
+            max_samples=problem.max_samples,
+            lookahead=problem.lookahead,
+            switch_penalty=problem.switch_penalty,
+            substeps=problem.substeps,
+            progress=(lambda k: progress("dstar", k, None)) if progress else None,
+        )
+    with clock.phase("pso"):
+        pso_res, smoother, motion, improved = _smooth(
+            problem, kin, fcs, checker, dmotion, goal_states, seed, progress
+        )
     return DynamicPlanResult(
         problem=problem,
         kin=kin,
@@ -494,5 +508,5 @@ def plan_dynamic(
         smoother=smoother,
         motion=motion,
         pso_improved=improved,
-        timings=timings,
+        timings={k: clock.wall[k] for k in ("setup", "dstar", "pso")},
     )

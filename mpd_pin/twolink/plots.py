@@ -6,8 +6,9 @@
   obstacle trajectories, and the PSO cost per iteration (Fig. 7);
 * :func:`plot_arm_snapshots` — the arm and the obstacles at selected samples
   (Figs. 6 and 8);
-* :func:`plot_joint_angles`, :func:`plot_joint_changes` — joint angles (rad)
-  and their change per sample (rad) against time (s) (Figs. 9 and 10);
+* :func:`plot_joint_changes` — the change of the joint angles per sample (rad)
+  against time (s) (Fig. 10); the joint angles themselves (Fig. 9) are drawn by
+  :func:`mpd_pin.viz.plots.plot_joint_angles`, shared with paper 000;
 * :func:`plot_obstacle_motion` — obstacle centre tracks (Fig. 4).
 
 Every function returns a ``matplotlib.figure.Figure`` built with the
@@ -34,7 +35,6 @@ __all__ = [
     "plot_fcs_maps",
     "plot_paths",
     "plot_arm_snapshots",
-    "plot_joint_angles",
     "plot_joint_changes",
     "plot_obstacle_motion",
 ]
@@ -213,22 +213,6 @@ def plot_arm_snapshots(
         fig.suptitle(title, fontsize=10)
     fig.subplots_adjust(left=0.07, right=0.98, bottom=0.05, top=1.0 - 0.75 / fig.get_figheight(),
                         wspace=0.05, hspace=0.2)
-    return fig
-
-
-def plot_joint_angles(ts: float, q: np.ndarray, *, title: str = "joint angles") -> Figure:
-    """q1, q2 (rad) against t (s) (paper Fig. 9)."""
-    fig = Figure(figsize=(7, 4))
-    ax = fig.subplots()
-    t = np.arange(len(q)) * ts
-    for j in range(q.shape[1]):
-        ax.plot(t, q[:, j], "-o", ms=2.5, label=f"q{j + 1}")
-    ax.set_xlabel("t (s)")
-    ax.set_ylabel("angle (rad)")
-    ax.grid(alpha=0.3)
-    ax.legend()
-    ax.set_title(title)
-    fig.tight_layout()
     return fig
 
 

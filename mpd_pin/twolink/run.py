@@ -14,14 +14,16 @@
 
 from __future__ import annotations
 
-import json
+import contextlib
 import math
-import time
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..app.results import to_jsonable, write_json
+from ..app.timing import PhaseClock
 from .ik import BRANCHES
 from .planner import DynamicPlanResult, plan_dynamic
 from .scenario import DynamicScenario, parse_dynamic_scenario
@@ -33,10 +35,6 @@ __all__ = [
     "capsule_clearance",
     "peak_joint_speed",
 ]
-
-
-def _finite_or_none(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None
 
 
 def default_fcs_samples(res: DynamicPlanResult, n: int = 5) -> list[int]:
@@ -148,7 +146,8 @@ def peak_joint_speed(q: np.ndarray, ts: float) -> list[float]:
 
 
 def result_dict(scn: DynamicScenario, res: DynamicPlanResult, seed: int | None) -> dict[str, Any]:
-    """The JSON-ready result of one run (see :func:`run_dynamic_scenario`)."""
+    """The result of one run (see :func:`run_dynamic_scenario`); non-finite numbers are
+    left as they are (:func:`~mpd_pin.app.results.to_jsonable` writes them as null)."""
     prob = res.problem
     scene = prob.scene
     ts = scene.ts
@@ -207,7 +206,7 @@ def result_dict(scn: DynamicScenario, res: DynamicPlanResult, seed: int | None) 
         "path_length_dstar": d.length,
         "path_length_pso": mot.length,
         "pso_improved": res.pso_improved,
-        "pso_cost_curve": [_finite_or_none(c) for c in pso.cost_curve] if pso else [],
+        "pso_cost_curve": list(pso.cost_curve) if pso else [],
         "pso": {
             "particles": prob.pso.particles,
             "iterations": prob.pso.iterations,
@@ -224,7 +223,7 @@ def result_dict(scn: DynamicScenario, res: DynamicPlanResult, seed: int | None) 
         },
         "events": d.events,
         "event_counts": counts,
-        "min_clearance": _finite_or_none(float(min(clearances))),
+        "min_clearance": float(min(clearances)),
         "capsule_clearance": {
             "note": f"links as capsules of radius {r_link} m vs the discs (m), plain 2-D "
                     f"geometry; 'between' interpolates the joints linearly at "
@@ -232,79 +231,98 @@ def result_dict(scn: DynamicScenario, res: DynamicPlanResult, seed: int | None) 
                     "times); 'certified' bounds the clearance at every instant between "
                     "samples (run.capsule_clearance)",
             "substeps": CAPSULE_SUBSTEPS,
-            **{f"{name}_{key}": _finite_or_none(val)
+            **{f"{name}_{key}": val
                for name, c in (("pso", cap), ("dstar", dcap)) for key, val in c.items()},
         },
         "dstar": {"replans": d.replans, "edge_updates": d.edge_updates},
         "collision_checkers_built": res.checker.builds,
-        "timings": {k: round(v, 4) for k, v in res.timings.items()},
     }
 
 
 def run_dynamic_scenario(
-    data: dict,
+    scenario: DynamicScenario | Mapping[str, Any],
     out_dir: Path,
     *,
     seed: int | None = None,
     show_progress: bool = True,
     plots: bool = True,
-) -> dict:
-    """Plan a ``dynamic2link`` scenario (parsed TOML ``data``), write results to ``out_dir``.
+) -> dict[str, Any]:
+    """Plan a ``dynamic2link`` scenario (parsed, or its TOML dict), write results to ``out_dir``.
 
     ``seed`` overrides the scenario's ``pso.seed``. Returns the dict written to
-    ``out_dir/result.json``, which holds at least: ``link_lengths`` (m),
+    ``out_dir/result.json`` (by :func:`mpd_pin.app.results.write_json`: a non-finite
+    number is ``null``), which holds at least: ``link_lengths`` (m),
     ``samples`` (the executed smoothed motion at every motion sample:
     ``{t (s), q (rad), ee (m), branch, obstacles: [{name, center [x, z] (m),
     radius (m)}]}``), ``path_length_dstar`` and ``path_length_pso`` (m),
     ``pso_cost_curve`` (best length per iteration, m; null while no feasible
     particle), ``events`` (the D* execution's ``stop`` / ``backward`` /
     ``switch`` events with their ``sample`` index), plus ``dstar_samples``,
-    ``min_clearance`` (m, Coal, link cylinders), ``capsule_clearance`` (m, see
-    :func:`capsule_clearance`), ``max_joint_step`` (rad per sample, with its
-    ``max_joint_step_source``), ``velocity_limits`` and ``peak_joint_speed``
-    (rad/s) and timings (s). ``plots=False`` skips the PNG
-    figures (they take most of a run's time).
+    ``min_clearance`` (m, Coal, link cylinders; null without obstacles),
+    ``capsule_clearance`` (m, see :func:`capsule_clearance`), ``max_joint_step`` (rad
+    per sample, with its ``max_joint_step_source``), ``velocity_limits`` and
+    ``peak_joint_speed`` (rad/s), and the time per phase (``setup``, ``dstar``, ``pso``,
+    ``plots``, ``total``): wall-clock seconds in ``seconds_per_phase`` and, rounded to
+    0.1 ms, ``timings``; CPU seconds of this process in ``cpu_seconds_per_phase``
+    (docs/design.md §7). ``plots=False`` skips the PNG figures (they take most of a
+    run's time).
 
     Raises ConfigError/ValueError for bad input and
     :class:`~mpd_pin.twolink.planner.TrappedError` (a NoPathError) when the arm
     cannot be kept collision-free.
     """
-    t_all = time.perf_counter()
-    scn = parse_dynamic_scenario(data)
+    clock = PhaseClock()
+    scn = (scenario if isinstance(scenario, DynamicScenario)
+           else parse_dynamic_scenario(dict(scenario)))
     use_seed = scn.seed if seed is None else int(seed)
     out_dir = Path(out_dir)
-    progress = None
-    bars: dict[str, Any] = {}
-    if show_progress:
-        from tqdm.auto import tqdm
+    with _progress_bars(show_progress) as progress:
+        res = plan_dynamic(scn.problem, seed=use_seed, progress=progress, clock=clock)
+    result = result_dict(scn, res, use_seed)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with clock.phase("plots"):
+        result["plots"] = write_plots(scn, res, out_dir) if plots else []
+    clock.finish()
+    result["timings"] = {k: round(v, 4) for k, v in clock.wall.items()}
+    result["seconds_per_phase"] = dict(clock.wall)
+    result["cpu_seconds_per_phase"] = dict(clock.cpu)
+    result = to_jsonable(result)
+    write_json(out_dir / "result.json", result)
+    return result
 
-        def progress(stage: str, done: int, total: int | None) -> None:
-            bar = bars.get(stage)
-            if bar is None:
-                for other in bars.values():  # one bar at a time: the previous stage is over
-                    other.close()
-                desc = "D* execution (samples)" if stage == "dstar" else "PSO (iterations)"
-                bar = bars[stage] = tqdm(total=total, desc=desc, leave=False)
-            bar.update(done - bar.n)
+
+@contextlib.contextmanager
+def _progress_bars(show: bool) -> Iterator[Callable[[str, int, int | None], None] | None]:
+    """A ``progress(stage, done, total)`` callback for :func:`plan_dynamic` drawing one tqdm
+    bar per stage (``None`` when ``show`` is false); the bars are closed on exit."""
+    if not show:
+        yield None
+        return
+    from tqdm.auto import tqdm
+
+    bars: dict[str, Any] = {}
+
+    def progress(stage: str, done: int, total: int | None) -> None:
+        bar = bars.get(stage)
+        if bar is None:
+            for other in bars.values():  # one bar at a time: the previous stage is over
+                other.close()
+            desc = "D* execution (samples)" if stage == "dstar" else "PSO (iterations)"
+            bar = bars[stage] = tqdm(total=total, desc=desc, leave=False)
+        bar.update(done - bar.n)
 
     try:
-        res = plan_dynamic(scn.problem, seed=use_seed, progress=progress)
+        yield progress
     finally:
         for bar in bars.values():
             bar.close()
-    result = result_dict(scn, res, use_seed)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    result["plots"] = write_plots(scn, res, out_dir) if plots else []
-    result["timings"]["plots"] = round(time.perf_counter() - t0, 4)
-    result["timings"]["total"] = round(time.perf_counter() - t_all, 4)
-    text = json.dumps(result, indent=1, allow_nan=False)  # fails before anything is written
-    (out_dir / "result.json").write_text(text, encoding="utf-8")
-    return result
 
 
 def write_plots(scn: DynamicScenario, res: DynamicPlanResult, out_dir: Path) -> list[str]:
     """Write the PNG figures of a run into ``out_dir``; returns their file names."""
+    import matplotlib.pyplot as plt
+
+    from ..viz.plots import plot_joint_angles
     from . import plots
 
     scene = res.problem.scene
@@ -329,8 +347,9 @@ def write_plots(scn: DynamicScenario, res: DynamicPlanResult, out_dir: Path) -> 
             kin, scene, mot.q, snaps or _snapshot_samples(K, []), points=mot.points,
             title=f"{scn.name}: D* based on PSO motion",
         ),
-        "joint_angles.png": plots.plot_joint_angles(
-            ts, mot.q, title=f"{scn.name}: joint angles of the optimised path"
+        "joint_angles.png": plot_joint_angles(
+            np.arange(len(mot.q)) * ts, mot.q, ("q1", "q2"), marker="o",
+            title=f"{scn.name}: joint angles of the optimised path",
         ),
         "joint_changes.png": plots.plot_joint_changes(
             ts, mot.q, title=f"{scn.name}: change in joint angles per sample"
@@ -340,5 +359,6 @@ def write_plots(scn: DynamicScenario, res: DynamicPlanResult, out_dir: Path) -> 
     names = []
     for name, fig in figs.items():
         fig.savefig(out_dir / name, dpi=90)
+        plt.close(fig)  # the shared joint-angle figure is pyplot's; no-op for the others
         names.append(name)
     return names

@@ -1,13 +1,14 @@
 """Scenario files of ``kind = "dynamic2link"`` (paper 002), read strictly.
 
-A scenario is a TOML table (parsed to a dict by the CLI)::
+A scenario is a TOML table (read by :func:`mpd_pin.app.kinds.load_scenario`)::
 
     kind = "dynamic2link"
     name = "env1"
     description = "..."
 
-    [arm]
-    builtin = "planar_2link"   # or urdf = "path/to/arm.urdf" (a planar two-link arm)
+    [arm]                      # as for every kind (mpd_pin.app.arm_source); default:
+    builtin = "planar_2link"   # or urdf = "arm.urdf" (relative to this file), a planar
+                               # two-link arm
 
     [grid]                     # end-effector cells, m
     x = [-1.0, 1.0]
@@ -69,10 +70,11 @@ Unknown keys, wrong types and impossible values raise
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from pathlib import Path
+from typing import Any, ClassVar
 
+from ..app.arm_source import arm_from_table
 from ..app.config import ConfigError, Table
-from ..arm.builtin import BUILTIN_ARMS, builtin_arm
 from ..arm.model import Arm
 from .fcs import Grid
 from .ik import link_lengths
@@ -99,6 +101,7 @@ MOTIONS = ("static", "straight", "back_and_forth", "square", "polyline")
 class DynamicScenario:
     """A parsed ``dynamic2link`` scenario: the planning problem plus run options."""
 
+    kind: ClassVar[str] = "dynamic2link"
     name: str
     description: str
     problem: DynamicProblem
@@ -163,18 +166,8 @@ def _obstacle(t: Table, index: int) -> MovingObstacle:
     return MovingObstacle(name, radius, traj, motion)
 
 
-def _arm(t: Table) -> Arm:
-    if t.has("urdf"):
-        path = t.string("urdf")
-        t.done()
-        try:
-            arm = Arm.from_urdf(path)
-        except ValueError as exc:
-            raise ConfigError(f"arm.urdf: {exc}") from None
-    else:
-        name = t.string("builtin", "planar_2link", choices=BUILTIN_ARMS)
-        t.done()
-        arm = builtin_arm(name)
+def _arm(t: Table, base_dir: Path | None) -> Arm:
+    arm = arm_from_table(t, base_dir, default_builtin="planar_2link")
     try:
         link_lengths(arm)
     except ValueError as exc:
@@ -194,9 +187,13 @@ def _samples(t: Table, key: str) -> list[int] | None:
     return list(val)
 
 
-def parse_dynamic_scenario(data: dict[str, Any]) -> DynamicScenario:
+def parse_dynamic_scenario(
+    data: dict[str, Any], *, base_dir: Path | None = None, seed: int | None = None
+) -> DynamicScenario:
     """Validate a ``kind = "dynamic2link"`` scenario dict and build its problem (strict).
 
+    ``base_dir``: the scenario file's folder, against which a relative ``[arm] urdf``
+    path is resolved (``None``: the working directory); ``seed`` overrides ``pso.seed``.
     Raises :class:`~mpd_pin.config.ConfigError` for unknown keys and bad values.
     Start/goal reachability and collisions are checked by the planner (ValueError).
     """
@@ -207,7 +204,7 @@ def parse_dynamic_scenario(data: dict[str, Any]) -> DynamicScenario:
     name = top.string("name", "dynamic2link")
     description = top.string("description", "")
 
-    arm = _arm(top.table("arm"))
+    arm = _arm(top.table("arm"), base_dir)
 
     g = top.table("grid")
     gx = _pair(g, "x", [-1.0, 1.0])
@@ -290,7 +287,7 @@ def parse_dynamic_scenario(data: dict[str, Any]) -> DynamicScenario:
         name=name,
         description=description,
         problem=problem,
-        seed=seed_val,
+        seed=seed_val if seed is None else int(seed),
         fcs_samples=fcs_samples,
         snapshot_samples=snapshot_samples,
         data=dict(data),

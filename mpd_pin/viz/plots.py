@@ -3,7 +3,8 @@
 * :func:`plot_arm_path` — the arm at every path node over the obstacles, with
   the end-effector trace (x–z plane for planar arms; a 3-D view otherwise, where
   boxes, cylinders, spheres and extruded polygons are drawn as shaded solids);
-* :func:`plot_joint_angles` — joint angles (rad) against time (s);
+* :func:`plot_joint_angles` — joint angles (rad) against time (s), for both papers
+  (paper 002's figures in :mod:`mpd_pin.twolink.plots` use it too);
 * :func:`plot_cumulative_energy` — E⁺ per joint (J) accumulated against time (s).
 
 All functions return a ``matplotlib.figure.Figure`` and never call ``show``.
@@ -289,13 +290,17 @@ def plot_joint_angles(
     *,
     node_times: Sequence[float] = (),
     title: str = "",
+    marker: str = "",
 ):
-    """Joint angles (rad) against time (s); vertical lines at the path nodes."""
+    """Joint angles q (rad, (len(t), nq)) against time t (s), one line per joint named by
+    ``joint_names``; vertical lines at ``node_times`` (s, the path nodes of paper 000);
+    ``marker`` (a matplotlib marker, e.g. ``"o"``) marks every sample (the
+    motion samples of paper 002 Figs. 9/15)."""
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(8, 4))
     for k, name in enumerate(joint_names):
-        ax.plot(t, q[:, k], label=name)
+        ax.plot(t, q[:, k], marker=marker or None, ms=2.5, label=name)
     for tn in node_times:
         ax.axvline(tn, color="0.85", lw=0.8, zorder=0)
     ax.set_xlabel("time (s)")

@@ -1,0 +1,149 @@
+"""Scenario kinds: ``kind = "…"`` of a scenario file → its parser, runner and summary line
+(docs/design.md §7).
+
+=================  =================================================  ========================
+kind               parsed into / run by                               paper
+=================  =================================================  ========================
+``energy``         :class:`~mpd_pin.app.scenario.EnergyScenario` /    000 (MPD* Lite, energy)
+                   :func:`~mpd_pin.app.runner.run_energy_scenario`
+``dynamic2link``   :class:`~mpd_pin.twolink.scenario.DynamicScenario`  002 (D* + PSO, moving
+                   / :func:`~mpd_pin.twolink.run.run_dynamic_scenario`  obstacles)
+=================  =================================================  ========================
+
+:func:`load_scenario` reads a built-in name or a file of any kind; :func:`run_scenario`
+runs it and :func:`summary_line` gives the line ``mpd-pin run`` prints. Each kind's
+modules are imported when a scenario of that kind is parsed or run, not before.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from ..search.registry import PLANNERS
+from .config import ConfigError
+
+__all__ = [
+    "DEFAULT_KIND",
+    "KINDS",
+    "ScenarioKind",
+    "load_scenario",
+    "run_scenario",
+    "scenario_kind",
+    "summary_line",
+]
+
+DEFAULT_KIND = "energy"
+
+
+@dataclass(frozen=True)
+class ScenarioKind:
+    """How one kind of scenario is parsed, run and summed up.
+
+    ``parse(data, path, seed=, planner=)`` → the scenario (ConfigError if bad);
+    ``run(scenario, out_dir, show_progress=, cache=, replay=)`` → the result dict written
+    to ``out_dir/result.json``; ``summary(scenario, result, out_dir)`` → one line.
+    """
+
+    description: str
+    parse: Callable[..., Any]
+    run: Callable[..., dict[str, Any]]
+    summary: Callable[[Any, dict[str, Any], Path], str]
+
+
+def _parse_energy(data: dict[str, Any], path: Path, *, seed: int | None, planner: str | None):
+    from .scenario import parse_energy_scenario
+
+    scn = parse_energy_scenario(data, source=str(path), base_dir=path.parent, seed=seed)
+    if planner is None:
+        return scn
+    if planner not in PLANNERS:
+        raise ConfigError(f"planner: {planner!r} is not one of {sorted(PLANNERS)}")
+    return replace(scn, planner=planner)
+
+
+def _run_energy(scn, out_dir: Path, *, show_progress: bool, cache: Path | None, replay: bool):
+    from .runner import run_energy_scenario
+
+    return run_energy_scenario(scn, out_dir, show_progress=show_progress, cache=cache,
+                               replay=replay)
+
+
+def _summary_energy(scn, result: dict[str, Any], out_dir: Path) -> str:
+    per_joint = ", ".join(f"{e:.4g}" for e in result["energy_per_joint"])
+    return (f"{scn.name}: {result['total_energy']:.6g} J ({per_joint}) over "
+            f"{result['path']['length_nodes']} nodes; roadmap {result['roadmap']['num_nodes']} "
+            f"nodes -> {out_dir}/result.json")
+
+
+def _parse_dynamic(data: dict[str, Any], path: Path, *, seed: int | None, planner: str | None):
+    from ..twolink.scenario import parse_dynamic_scenario
+
+    if planner is not None:
+        raise ConfigError(
+            f"planner: {planner!r} does not apply to {path.stem!r}, a dynamic2link scenario "
+            "(D* on the end-effector grid, then PSO; paper 002); --planner is for energy "
+            "scenarios"
+        )
+    return parse_dynamic_scenario(data, base_dir=path.parent, seed=seed)
+
+
+def _run_dynamic(scn, out_dir: Path, *, show_progress: bool, cache: Path | None, replay: bool):
+    """``cache`` and ``replay`` do not apply (no roadmap, no meshcat replay) and are ignored."""
+    from ..twolink.run import run_dynamic_scenario
+
+    return run_dynamic_scenario(scn, out_dir, show_progress=show_progress)
+
+
+def _summary_dynamic(scn, result: dict[str, Any], out_dir: Path) -> str:
+    return (f"{scn.name}: D* path {result['path_length_dstar']:.4f} m, "
+            f"PSO path {result['path_length_pso']:.4f} m -> {out_dir}/result.json")
+
+
+#: kind name → how it is parsed, run and summed up; the first is the default kind.
+KINDS: dict[str, ScenarioKind] = {
+    "energy": ScenarioKind(
+        "energy-optimal path on a roadmap (paper 000)", _parse_energy, _run_energy,
+        _summary_energy,
+    ),
+    "dynamic2link": ScenarioKind(
+        "two-link arm among moving obstacles (paper 002)", _parse_dynamic, _run_dynamic,
+        _summary_dynamic,
+    ),
+}
+
+
+def scenario_kind(data: Mapping[str, Any]) -> str:
+    """The ``kind`` of parsed scenario TOML (``"energy"`` when it gives none)."""
+    return str(data.get("kind", DEFAULT_KIND))
+
+
+def load_scenario(name_or_path: str | Path, *, seed: int | None = None,
+                  planner: str | None = None) -> Any:
+    """A built-in scenario name or a ``.toml`` file → the parsed scenario of its kind.
+
+    ``seed`` overrides the scenario's seed (``[roadmap] seed`` / ``[pso] seed``);
+    ``planner`` (a name of :data:`mpd_pin.search.PLANNERS`) its ``[planner] algorithm``
+    (energy scenarios only). Raises ConfigError for bad input.
+    """
+    from .scenario import load_scenario_data, resolve_scenario
+
+    path = resolve_scenario(str(name_or_path))
+    data = load_scenario_data(path)
+    return KINDS[scenario_kind(data)].parse(data, path, seed=seed, planner=planner)
+
+
+def run_scenario(scn: Any, out_dir: Path, *, show_progress: bool = True,
+                 cache: Path | None = None, replay: bool = True) -> dict[str, Any]:
+    """Run a scenario of any kind (from :func:`load_scenario`) and write its results into
+    ``out_dir``; returns the result dict. ``cache`` (roadmap .npz) and ``replay``
+    (meshcat replay.html) apply to energy scenarios."""
+    return KINDS[scn.kind].run(scn, Path(out_dir), show_progress=show_progress, cache=cache,
+                               replay=replay)
+
+
+def summary_line(scn: Any, result: dict[str, Any], out_dir: Path) -> str:
+    """The one line ``mpd-pin run`` prints for a finished run."""
+    return KINDS[scn.kind].summary(scn, result, out_dir)

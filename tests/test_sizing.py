@@ -36,3 +36,32 @@ def test_sized_motor_refuses_missing_limits_and_impossible_efforts():
         sized_motor(1e4, 1.0)
     with pytest.raises(ValueError, match="'sized' motor preset needs"):
         sized_motors(mp.Arm.from_example_robot_data("double_pendulum"))
+
+
+def _scenario(motor_toml: str):
+    import tomllib
+
+    from mpd_pin.app.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
+
+    data = load_scenario_data(builtin_scenarios()["panda"])
+    data["motor"] = tomllib.loads(motor_toml)
+    return parse_energy_scenario(data, source="test", base_dir=None)
+
+
+def test_scenario_preset_sized_gives_the_sized_motors_with_overrides():
+    scn = _scenario('preset = "sized"')
+    assert scn.motor == sized_motors(scn.arm)
+    scn = _scenario('preset = "sized"\nv_max = 48.0\nB = [0, 0, 0, 0, 1e-5, 1e-5, 1e-5]')
+    ref = sized_motors(scn.arm, supply_voltage=48.0)
+    assert [m.gear_ratio for m in scn.motor] == [m.gear_ratio for m in ref]
+    assert [m.Kt for m in scn.motor] == [m.Kt for m in ref]
+    assert [m.B for m in scn.motor] == [0.0] * 4 + [1e-5] * 3
+
+
+def test_scenario_preset_sized_errors_name_the_key():
+    from mpd_pin.app.config import ConfigError
+
+    with pytest.raises(ConfigError, match=r"motor\.v_max"):
+        _scenario('preset = "sized"\nv_max = -1.0')
+    with pytest.raises(ConfigError, match="preset"):
+        _scenario('preset = "sizzled"')

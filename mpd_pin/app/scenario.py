@@ -67,6 +67,7 @@ import numpy as np
 
 from ..arm.model import Arm
 from ..dynamics.motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
+from ..dynamics.sizing import sized_motors
 from ..planning.roadmap import RoadmapOptions
 from ..search.registry import DEFAULT_PLANNER, PLANNERS
 from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
@@ -82,7 +83,7 @@ __all__ = [
     "resolve_scenario",
 ]
 
-MOTOR_PRESETS = {"paper": PAPER_MOTOR, "servo": SERVO_MOTOR}
+MOTOR_PRESETS = {"paper": PAPER_MOTOR, "servo": SERVO_MOTOR, "sized": None}  # sized: per arm
 
 
 @dataclass
@@ -155,9 +156,30 @@ def load_scenario_data(path: Path) -> dict[str, Any]:
 MOTOR_CONSTANTS = ("R", "L", "Kt", "Ke", "B", "J", "gear_ratio", "v_max")
 
 
-def _motor_one(t: Table, index: int | None = None) -> DCMotor:
-    """One motor from a table of scalars; with ``index``, array values give joint ``index``."""
-    base = MOTOR_PRESETS[t.string("preset", "paper", choices=MOTOR_PRESETS)]
+def _sized(t: Table, arm: Arm) -> list[DCMotor]:
+    """``preset = "sized"``: motors sized from the arm's URDF limits at the supply voltage
+    ``v_max`` (default 24 V; docs/design.md §3g)."""
+    supply = t.number("v_max", 24.0, positive=True) if t.has("v_max") else 24.0
+    try:
+        return sized_motors(arm, supply_voltage=supply)
+    except ValueError as exc:
+        raise ConfigError(f"{t.path}.preset: {exc}") from None
+
+
+def _motor_one(
+    t: Table, arm: Arm, index: int | None = None, *, joint: int | None = None
+) -> DCMotor:
+    """One motor from a table of scalars; with ``index``, array values give joint ``index``.
+
+    ``joint`` is the joint the motor drives (``preset = "sized"`` needs it)."""
+    preset = t.string("preset", "paper", choices=MOTOR_PRESETS)
+    if preset == "sized":
+        j = index if index is not None else joint
+        if j is None:
+            raise ConfigError(f"{t.path}.preset: 'sized' gives one motor per joint")
+        base = _sized(t, arm)[j]
+    else:
+        base = MOTOR_PRESETS[preset]
     t.seen.update(MOTOR_CONSTANTS)  # every constant is a known key (for unknown-key errors)
     fields = {}
     for name in MOTOR_CONSTANTS:
@@ -177,11 +199,12 @@ def _motor_one(t: Table, index: int | None = None) -> DCMotor:
         raise ConfigError(f"{t.path}{joint}: {exc}") from None
 
 
-def _motors(top: Table, nq: int) -> DCMotor | list[DCMotor]:
+def _motors(top: Table, arm: Arm) -> DCMotor | list[DCMotor]:
     """``[motor]`` (constants scalar or one per joint) or ``[[motors]]`` (one table per joint).
 
     Returns one DCMotor when every constant is a scalar, else a list of ``nq``.
     """
+    nq = arm.nq
     if top.has("motor") and top.has("motors"):
         raise ConfigError("give [motor] (shared or per-joint arrays) or [[motors]], not both")
     if top.has("motors"):
@@ -191,8 +214,8 @@ def _motors(top: Table, nq: int) -> DCMotor | list[DCMotor]:
                 f"motors: expected one [[motors]] table per joint ({nq}), got {len(tables)}"
             )
         motors = []
-        for t in tables:
-            motors.append(_motor_one(t))
+        for j, t in enumerate(tables):
+            motors.append(_motor_one(t, arm, joint=j))
             t.done()
         return motors
     t = top.table("motor")
@@ -206,11 +229,11 @@ def _motors(top: Table, nq: int) -> DCMotor | list[DCMotor]:
                     f"got {len(val)}"
                 )
             per_joint.append(name)
-    if not per_joint:
-        motor = _motor_one(t)
+    if not per_joint and t.raw("preset", "paper") != "sized":
+        motor = _motor_one(t, arm)
         t.done()
         return motor
-    motors = [_motor_one(t, j) for j in range(nq)]
+    motors = [_motor_one(t, arm, j) for j in range(nq)]
     t.done()
     return motors
 
@@ -367,7 +390,7 @@ def parse_energy_scenario(
     name = top.string("name", Path(source).stem if source else "scenario")
     description = top.string("description", "")
     arm = arm_from_table(top.table("arm", required=True), base_dir)
-    motor = _motors(top, arm.nq)
+    motor = _motors(top, arm)
     ctl = top.table("controller")
     kp = _gain(ctl, "kp", 40.0, arm.nq)
     kd = _gain(ctl, "kd", 4.0, arm.nq)

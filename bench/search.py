@@ -31,7 +31,7 @@ relative and the largest difference is printed, as is the largest difference
 between the D* Lites' internal cost-to-goal g(start) (summed from the goal) and
 their path's left-to-right sum.
 
-Run:  PYTHONPATH=. python bench/search.py            (about 70 s on 2 cores; 100k dominates)
+Run:  PYTHONPATH=. python bench/search.py            (the 100k-node graph dominates the time)
       PYTHONPATH=. python bench/search.py --sizes 1000 10000   (skip 100k)
 Every graph goes through ``planner_graph(n, src, dst, cost)``; section 1b passes
 a real roadmap's arrays (tails, heads, energies in J) through it. The paper's

@@ -23,12 +23,12 @@ from __future__ import annotations
 
 import argparse
 import os
-import time
 
 import numpy as np
 import pinocchio as pin
 
 import mpd_pin as mp
+from common import best_of
 from mpd_pin.dynamics.batch import DEFAULT_CHUNK, BatchRneaDerivative, rnea_with_derivative
 
 THREADS = 2
@@ -51,15 +51,6 @@ def quintic_batch(model: pin.Model, edges: int, points: int, seed: int = 0):
     shape = (model.nv, edges * points)
     Q = (q0.T[:, :, None] + dq * s).reshape(shape)
     return Q, (dq * sd).reshape(shape), (dq * sdd).reshape(shape), (dq * sddd).reshape(shape)
-
-
-def best_of(fn, repeats: int) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def loop_rnea_derivatives(model, Q, V, A, J) -> np.ndarray:
@@ -133,13 +124,13 @@ def measure(name: str, model: pin.Model, args) -> None:
     def loop():
         loop_rnea_derivatives(model, Q[:, sl], V[:, sl], A[:, sl], J[:, sl])
 
-    t_ours = best_of(ours_out, args.repeats) / batch
-    t_alloc = best_of(ours_alloc, args.repeats) / batch
-    t_threads = best_of(ours_threads, args.repeats) / batch
-    t_edge = best_of(ours_edge, 20 * args.repeats) / args.points
-    t_rnea = best_of(rnea_par, args.repeats) / batch
-    t_aba = best_of(aba_par, args.repeats) / batch
-    t_loop = best_of(loop, max(1, args.repeats // 2)) / n_loop
+    t_ours = best_of(ours_out, args.repeats)[0] / batch
+    t_alloc = best_of(ours_alloc, args.repeats)[0] / batch
+    t_threads = best_of(ours_threads, args.repeats)[0] / batch
+    t_edge = best_of(ours_edge, 20 * args.repeats)[0] / args.points
+    t_rnea = best_of(rnea_par, args.repeats)[0] / batch
+    t_aba = best_of(aba_par, args.repeats)[0] / batch
+    t_loop = best_of(loop, max(1, args.repeats // 2))[0] / n_loop
     # consistency: the same τ as rneaInParallel, the same τ̇ as the loop
     rnea_par()
     err_tau = np.abs(out[0] - tau_f).max() / np.abs(tau_f).max()
@@ -173,7 +164,7 @@ def measure(name: str, model: pin.Model, args) -> None:
             def run(chunk=chunk):
                 rnea_with_derivative(model, Q, V, A, J, chunk=chunk, out=out)
 
-            sweep.append(f"{chunk}: {best_of(run, args.repeats) / batch * us:.3f}")
+            sweep.append(f"{chunk}: {best_of(run, args.repeats)[0] / batch * us:.3f}")
         print(f"  chunk sweep (us/config): {', '.join(sweep)}")
         print(f"  pitfall check, rneaInParallel outputs: {order_pitfall(model)}")
 

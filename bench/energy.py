@@ -17,14 +17,15 @@ Usage: python bench/energy.py [--edges 1000] [--single 10]
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import time
+from functools import partial
 
 import numpy as np
 import pinocchio as pin
 
 import mpd_pin as mp
+from common import best_of
 
 REPEATS = 3  # every throughput is the best of 3 timed runs (the machine may be shared)
 
@@ -47,13 +48,12 @@ def aba_seconds_per_config(drive: mp.Drive, K: int, threads: int, repeats: int =
     A = np.zeros((nq, K), order="F")
     pool = pin.ModelPool(drive.model, threads)
     pin.abaInParallel(threads, pool, Q, V, T, A)
-    best = math.inf
-    for _ in range(REPEATS):  # best of REPEATS means of ``repeats`` calls
-        t0 = time.perf_counter()
+
+    def calls() -> None:
         for _ in range(repeats):
             pin.abaInParallel(threads, pool, Q, V, T, A)
-        best = min(best, (time.perf_counter() - t0) / (repeats * K))
-    return best
+
+    return best_of(calls, REPEATS)[0] / (repeats * K)  # best of REPEATS means of ``repeats`` calls
 
 
 def main() -> None:
@@ -78,11 +78,7 @@ def main() -> None:
         single = args.single / (time.perf_counter() - t0)
 
         mp.edge_energies(drive, Q0[:8], Q1[:8], T, dt)  # warm-up (pool, imports)
-        best = math.inf
-        for _ in range(REPEATS):
-            t0 = time.perf_counter()
-            mp.edge_energies(drive, Q0, Q1, T, dt)
-            best = min(best, time.perf_counter() - t0)
+        best, _ = best_of(partial(mp.edge_energies, drive, Q0, Q1, T, dt), REPEATS)
         batched = args.edges / best
 
         spc = aba_seconds_per_config(drive, min(args.edges, 1024), threads)

@@ -19,7 +19,8 @@
    graph; target near the robot: repair >= 20x faster. Every time is the best of
    the same number of repeats (``--repeats``); each MPD* repair runs on a fresh
    planner whose first plan() is made outside the timed region.
-4. Priority queue: heapq with lazy deletion vs a pure-Python indexed heap.
+(The priority-queue choice, heapq with lazy deletion vs an indexed heap, is
+measured by ``bench/queues.py``.)
 
 Costs. Every path (ours and networkx's) is re-costed by summing the graph's edge
 costs left to right; where two paths are the same node sequence these sums are
@@ -30,10 +31,11 @@ relative and the largest difference is printed, as is the largest difference
 between the D* Lites' internal cost-to-goal g(start) (summed from the goal) and
 their path's left-to-right sum.
 
-Run:  PYTHONPATH=. python bench/search.py            (about 75 s on 2 cores; 100k dominates)
+Run:  PYTHONPATH=. python bench/search.py            (the 100k-node graph dominates the time)
       PYTHONPATH=. python bench/search.py --sizes 1000 10000   (skip 100k)
 Every graph goes through ``planner_graph(n, src, dst, cost)``; section 1b passes
-a real roadmap's arrays (tails, heads, energies in J) through it.
+a real roadmap's arrays (tails, heads, energies in J) through it. The paper's
+Table 6 is read from ``notebooks/paper000_table6.json`` (shared with notebook 04).
 """
 
 from __future__ import annotations
@@ -42,13 +44,14 @@ import argparse
 import math
 import time
 from collections.abc import Callable
+from functools import partial
 
 import networkx as nx
 import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra as sp_dijkstra
-from scipy.spatial import cKDTree
 
+from common import best_of, paper_table6, random_geometric_arrays
 from mpd_pin.search import (
     AStar,
     Dijkstra,
@@ -61,34 +64,10 @@ from mpd_pin.search import (
 )
 
 # Paper 000, Table 6: (nodes, best-path length, MPD* Lite s, D* Lite s, A* s), MATLAB.
-PAPER_TABLE6 = [
-    (91, 3, 0.125, 0.348, 0.094),
-    (91, 7, 0.344, 1.553, 0.891),
-    (91, 10, 1.031, 8.564, 78.125),
-    (182, 13, 1.063, 9.678, 593.218),
-    (273, 21, 3.047, 40.849, 2450.375),
-]
+PAPER_TABLE6 = paper_table6()
 
 
 # ------------------------------------------------------------------ graphs
-def random_geometric_arrays(
-    n: int, k: int = 10, seed: int = 0
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Points in [0,1]^3, k-NN edges in both directions, cost = length * U(1, 2).
-
-    Returns ``(points, src, dst, cost)``; a pair listed from both ends appears
-    twice and :class:`Graph` keeps the cheaper one.
-    """
-    rng = np.random.default_rng(seed)
-    pts = rng.random((n, 3))
-    _, nbr = cKDTree(pts).query(pts, k + 1)
-    src = np.repeat(np.arange(n), k)
-    dst = nbr[:, 1:].ravel()
-    src, dst = np.concatenate([src, dst]), np.concatenate([dst, src])
-    cost = np.linalg.norm(pts[src] - pts[dst], axis=1) * rng.uniform(1.0, 2.0, src.size)
-    return pts, src, dst, cost
-
-
 def planner_graph(n: int, src: np.ndarray, dst: np.ndarray, cost: np.ndarray) -> Graph:
     """The benchmarked graph from tails, heads and costs (a roadmap plugs in here)."""
     return Graph.from_arrays(n, src, dst, cost)
@@ -232,16 +211,13 @@ def timed_plan(
     make: Callable[[Graph, int, int], Planner], g: Graph, s: int, t: int, repeats: int
 ) -> tuple[float, Planner]:
     """Best-of-``repeats`` wall time of ``make(g, s, t)`` and its first plan() (s)."""
-    best = math.inf
-    planner = None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
+
+    def first_plan() -> Planner:
         p = make(g, s, t)
         p.plan()
-        dt = time.perf_counter() - t0
-        if dt < best:
-            best, planner = dt, p
-    return best, planner
+        return p
+
+    return best_of(first_plan, repeats)
 
 
 def timed_repair(
@@ -272,17 +248,6 @@ def timed_repair(
         if dt < best:
             best, result = dt, (p, path)
     return best, *result
-
-
-def timed_call(fn: Callable[..., list[int]], repeats: int, *args, **kwargs):
-    """Best-of-``repeats`` wall time of ``fn(*args, **kwargs)`` (s) and its result."""
-    best = math.inf
-    out = None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn(*args, **kwargs)
-        best = min(best, time.perf_counter() - t0)
-    return best, out
 
 
 def planners_for(points: np.ndarray) -> dict[str, Callable[[Graph, int, int], Planner]]:
@@ -482,7 +447,7 @@ def scaling(sizes: list[int], graphs: dict, repeats: int) -> None:
     )
     for n in sizes:
         pts, g, G, s, t = graphs[n]
-        best_nx, nx_path = timed_call(nx.dijkstra_path, repeats, G, s, t)
+        best_nx, nx_path = best_of(partial(nx.dijkstra_path, G, s, t), repeats)
         makers = planners_for(pts)
         times = {}
         exps = {}
@@ -550,8 +515,8 @@ def replanning(sizes: list[int], graphs: dict, repeats: int) -> None:
             removed = [(u, v, G[u][v]["weight"]) for u, v in blocked if G.has_edge(u, v)]
             G.remove_edges_from([(u, v) for u, v, _ in removed])
             try:
-                nx0_t, p0 = timed_call(nx.astar_path, repeats, G, s, t)
-                nx1_t, p1 = timed_call(nx.astar_path, repeats, G, s, t, heuristic=h)
+                nx0_t, p0 = best_of(partial(nx.astar_path, G, s, t), repeats)
+                nx1_t, p1 = best_of(partial(nx.astar_path, G, s, t, heuristic=h), repeats)
             finally:
                 G.add_weighted_edges_from(removed)
             for nm, nodes in (("MPD* repair", path.nodes), ("MPD* fresh", fpath.nodes)):
@@ -593,114 +558,6 @@ def replanning(sizes: list[int], graphs: dict, repeats: int) -> None:
                 )
 
 
-# --------------------------------------------------------------- section 4
-def _dijkstra_lazy(g: Graph, s: int, t: int) -> float:
-    from heapq import heappop, heappush
-
-    sptr, sdst, scost = g.successor_view
-    dist = [math.inf] * g.num_nodes
-    dist[s] = 0.0
-    heap = [(0.0, s)]
-    while heap:
-        d, u = heappop(heap)
-        if d > dist[u]:
-            continue
-        if u == t:
-            return d
-        a, b = sptr[u], sptr[u + 1]
-        for v, c in zip(sdst[a:b], scost[a:b], strict=True):
-            nd = d + c
-            if nd < dist[v]:
-                dist[v] = nd
-                heappush(heap, (nd, v))
-    return math.inf
-
-
-def _dijkstra_indexed(g: Graph, s: int, t: int) -> float:
-    """Same loop with a binary heap that supports decrease-key (positions array)."""
-    sptr, sdst, scost = g.successor_view
-    n = g.num_nodes
-    dist = [math.inf] * n
-    pos = [-1] * n  # index in heap, -1 = not in heap
-    heap: list[int] = []
-
-    def sift_up(i: int) -> None:
-        x = heap[i]
-        dx = dist[x]
-        while i:
-            j = (i - 1) >> 1
-            y = heap[j]
-            if dist[y] <= dx:
-                break
-            heap[i] = y
-            pos[y] = i
-            i = j
-        heap[i] = x
-        pos[x] = i
-
-    def pop_min() -> int:
-        top = heap[0]
-        last = heap.pop()
-        pos[top] = -2  # done
-        if heap:
-            size = len(heap)
-            i = 0
-            dl = dist[last]
-            while True:
-                c = 2 * i + 1
-                if c >= size:
-                    break
-                if c + 1 < size and dist[heap[c + 1]] < dist[heap[c]]:
-                    c += 1
-                if dist[heap[c]] >= dl:
-                    break
-                heap[i] = heap[c]
-                pos[heap[i]] = i
-                i = c
-            heap[i] = last
-            pos[last] = i
-        return top
-
-    dist[s] = 0.0
-    heap.append(s)
-    pos[s] = 0
-    while heap:
-        u = pop_min()
-        if u == t:
-            return dist[u]
-        d = dist[u]
-        a, b = sptr[u], sptr[u + 1]
-        for v, c in zip(sdst[a:b], scost[a:b], strict=True):
-            nd = d + c
-            if nd < dist[v]:
-                dist[v] = nd
-                if pos[v] == -1:
-                    heap.append(v)
-                    pos[v] = len(heap) - 1
-                sift_up(pos[v])
-    return math.inf
-
-
-def queues(sizes: list[int], graphs: dict) -> None:
-    print("\n== 4. Priority queue: heapq + lazy deletion vs pure-Python indexed heap ==")
-    for n in sizes:
-        _, g, _, s, t = graphs[n]
-        res = {}
-        for name, fn in (("heapq lazy", _dijkstra_lazy), ("indexed heap", _dijkstra_indexed)):
-            best = math.inf
-            for _ in range(3 if n <= 10_000 else 1):
-                t0 = time.perf_counter()
-                d = fn(g, s, t)
-                best = min(best, time.perf_counter() - t0)
-            res[name] = (best, d)
-        assert res["heapq lazy"][1] == res["indexed heap"][1]
-        a, b = res["heapq lazy"][0], res["indexed heap"][0]
-        print(
-            f"{n:>7} nodes: heapq lazy {a:.4f} s, indexed heap {b:.4f} s "
-            f"(indexed / heapq = {b / a:.2f})"
-        )
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[1000, 10_000, 100_000])
@@ -732,7 +589,6 @@ def main() -> None:
         print(f"(graph {n}: Graph.from_arrays {tb:.2f} s, networkx DiGraph {tnx:.2f} s)")
     scaling(args.sizes, graphs, repeats=args.repeats)
     replanning(args.sizes, graphs, repeats=args.repeats)
-    queues(args.sizes, graphs)
     print("\n== Summary ==")
     for line in TARGETS.lines:
         print("   " + line)

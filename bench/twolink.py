@@ -25,28 +25,18 @@ Run:  PYTHONPATH=. python bench/twolink.py
 
 from __future__ import annotations
 
-import time
 import tomllib
 from importlib import resources
 
 import numpy as np
 import pinocchio as pin
 
+from common import best_of
 from mpd_pin.collision import GJK_TOLERANCE, CollisionChecker
 from mpd_pin.twolink import FreeCartesianSpace, SampledCollisionChecker, TwoLinkKinematics
 from mpd_pin.twolink.planner import plan_dynamic
 from mpd_pin.twolink.scenario import parse_dynamic_scenario
 from mpd_pin.world import geometry_object
-
-
-def best_of(f, n=3):
-    best = np.inf
-    out = None
-    for _ in range(n):
-        t0 = time.perf_counter()
-        out = f()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
 
 
 def load(name):

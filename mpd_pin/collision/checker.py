@@ -396,7 +396,7 @@ class CollisionChecker:
         self._sync()
         model, data, gm, state = self.model, self.data, self.geom_model, self._state
         best = validity.min_distance(model, data, gm, self._dist_data, state.obstacle_idx, q)
-        if hazards:
+        if hazards and state.hazard_idx:
             best = min(
                 best,
                 validity.min_distance(model, data, gm, self._hazard_data, state.hazard_idx, q),
@@ -410,6 +410,8 @@ class CollisionChecker:
         """
         q = self._q(q)
         self._sync()
+        if not self._state.hazard_idx:
+            return math.inf
         return validity.hazard_margin(
             self.model, self.data, self.geom_model, self._hazard_data, self._haz_clear_of,
             self._state.hazard_idx, q,

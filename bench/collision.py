@@ -34,7 +34,7 @@ import pinocchio as pin
 from scipy.spatial import cKDTree
 
 import mpd_pin as mp
-from mpd_pin.collision import CollisionChecker, _bisection_order, edge_configurations
+from mpd_pin.collision import CollisionChecker, bisection_order, edge_configurations
 from mpd_pin.world import Box, Cylinder, World
 
 
@@ -178,7 +178,7 @@ def bench_edges(name: str, arm: mp.Arm, world: World, K: int, threads: int,
           f"  (x{t_loop / t_batch:.2f} slower)")
     print(f"   one flat is_free_batch of all configurations      {K / t_flat:9.0f} edges/s"
           f"  (x{t_flat / t_batch:.2f} slower)")
-    order = _bisection_order(8)
+    order = bisection_order(8)
     print(f"   (check order for 9 configurations: {order.tolist()})")
     # Discrete checking misses thin overlaps between two checked configurations.
     fine = checker.edges_free(Q0[ok], Q1[ok], res / 10, mode="discrete")
@@ -204,8 +204,7 @@ def bench_edges(name: str, arm: mp.Arm, world: World, K: int, threads: int,
     fine_c = checker.edges_free(Q0[cert], Q1[cert], res / 100, mode="discrete")
     print(f"   certified edges colliding at {res / 100} rad: {(~fine_c).sum()} of {cert.sum()}")
     if checker.certification_hulls:
-        plain = CollisionChecker(arm, world, num_threads=threads)
-        plain._cert = (plain.geom_model, plain._pool)  # certify on the meshes themselves
+        plain = CollisionChecker(arm, world, num_threads=threads, certify_on_hulls=False)
         t_mesh, cert_mesh = best_of(lambda: plain.edges_free(Q0, Q1, res))
         print(f"   certification on the meshes instead of their hulls: {K / t_mesh:.0f} edges/s "
               f"(x{t_mesh / t_cert:.2f} slower), {(cert != cert_mesh).sum()} edges differ")

@@ -13,7 +13,10 @@ import pytest
 from planar_geometry import brute_force, min_signed_distance, scene_2d
 
 import mpd_pin as mp
-from mpd_pin.collision import CollisionChecker, edge_configurations
+from mpd_pin.collision import CollisionChecker, bisection_order, edge_configurations
+from mpd_pin.collision.bounds import max_abs, motion_bounds, pair_weights
+from mpd_pin.collision.geometry import build_geometry, pair_state
+from mpd_pin.collision.motion import LevelCache
 from mpd_pin.world import Box, Cylinder, Hazard, Polygon, Sphere, World
 
 NEAR = 1e-6  # m: configurations this close to contact may go either way (GJK tolerance)
@@ -218,6 +221,54 @@ def test_batch_equals_loop_and_hidden_obstacles():
     assert np.all(wide.is_free_batch(Q) <= loop) and wide.is_free_batch(Q).sum() < loop.sum()
 
 
+def test_pair_state_epochs():
+    """The pair state is plain read-only data; it keeps its epoch while the world and the
+    settings ask for the same pairs and margins, and gets a new one when they change."""
+    arm = mp.builtin_arm("planar_3link")
+    world = World([Cylinder.planar((0.55, 0.35), 0.12, name="disc"),
+                   Box.planar((-0.5, 0.2), 0.2, 0.5, name="wall", hidden=True), HAZARD])
+    geometry = build_geometry(arm, world, None)
+    kw = dict(margin=0.01, include_hidden=False, hazard_clearance=False)
+    s0 = pair_state(geometry, world, **kw)
+    assert s0.epoch == 0 and not s0.active.flags.writeable and not s0.margins.flags.writeable
+    wall, disc, hot = (geometry.obstacle_pairs["wall"], geometry.obstacle_pairs["disc"],
+                       geometry.hazard_pairs["hot"])
+    assert not s0.active[wall].any() and s0.active[disc].all() and s0.active[hot].all()
+    assert s0.obstacle_idx == disc and s0.hazard_idx == hot
+    assert pair_state(geometry, world, **kw, previous=s0) is s0
+    world.reveal("wall")
+    s1 = pair_state(geometry, world, **kw, previous=s0)
+    assert s1.epoch == 1 and s1.active[wall].all() and s1.obstacle_idx == disc + wall
+    world.reset()
+    s2 = pair_state(geometry, world, **kw, previous=s1)
+    assert s2.epoch == 2 and np.array_equal(s2.active, s0.active)
+    s3 = pair_state(geometry, world, **{**kw, "hazard_clearance": True}, previous=s2)
+    assert s3.epoch == 3 and np.all(s3.margins[hot] == HAZARD.clearance)
+    assert np.all(np.delete(s3.margins, hot) == 0.01)
+    # a level cache stamped with another epoch is emptied on use
+    cache = LevelCache().at(s2.epoch)
+    cache.normalised[b"x"] = (np.zeros(1), np.zeros(1))
+    assert cache.at(s2.epoch).normalised and not cache.at(s3.epoch).normalised
+    # the checker's state follows the world the same way
+    checker = CollisionChecker(arm, world)
+    e0 = checker.pair_state.epoch
+    checker.set_include_hidden(False)
+    assert checker.pair_state.epoch == e0
+    checker.reveal("wall")
+    assert checker.pair_state.epoch == e0 + 1
+    world.reset()
+
+
+def test_bisection_order():
+    for n in range(40):
+        order = bisection_order(n)
+        np.testing.assert_array_equal(np.sort(order), np.arange(n + 1))
+        assert not order.flags.writeable
+        if n >= 1:
+            assert order[:2].tolist() == [0, n]
+    assert bisection_order(8).tolist() == [0, 8, 4, 2, 6, 1, 3, 5, 7]
+
+
 # ------------------------------------------------------------- edge checks
 def clearance_fn(spec, world, margin=0.0, hazard_clearance=False):
     """f(Q): min over obstacles, self pairs and hazards of (2-D signed distance − required
@@ -392,16 +443,66 @@ def _geometry_points(go, rng, n=12):
     return P @ go.placement.rotation.T + go.placement.translation
 
 
-@pytest.mark.parametrize("name", ["planar_3link", "planar_4link", "panda"])
+SLIDER_URDF = """<?xml version="1.0"?>
+<robot name="slider">
+  <link name="base"/>
+  <link name="l1"><inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01"
+    iyz="0" izz="0.01"/></inertial>
+    <collision><origin xyz="0.25 0 0" rpy="0 1.5707963 0"/>
+      <geometry><cylinder radius="0.03" length="0.5"/></geometry></collision></link>
+  <link name="l2"><inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01"
+    iyz="0" izz="0.01"/></inertial>
+    <collision><origin xyz="0.2 0 0" rpy="0 1.5707963 0"/>
+      <geometry><cylinder radius="0.03" length="0.4"/></geometry></collision></link>
+  <link name="l3"><inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01"
+    iyz="0" izz="0.01"/></inertial>
+    <collision><origin xyz="0.15 0.02 0" rpy="0 0 0.3"/>
+      <geometry><box size="0.3 0.05 0.08"/></geometry></collision></link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <origin xyz="0 0 0.1" rpy="0 0 0"/><axis xyz="0 -1 0"/>
+    <limit effort="10" velocity="1" lower="-3.1" upper="3.1"/></joint>
+  <joint name="j2" type="prismatic"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0.5 0 0" rpy="0 0 0"/><axis xyz="0.6 0 0.8"/>
+    <limit effort="10" velocity="1" lower="-0.2" upper="0.4"/></joint>
+  <joint name="j3" type="revolute"><parent link="l2"/><child link="l3"/>
+    <origin xyz="0.4 0 0" rpy="0.2 0 0"/><axis xyz="0 0 1"/>
+    <limit effort="10" velocity="1" lower="-3.1" upper="3.1"/></joint>
+</robot>
+"""
+
+
+def test_pair_weights_prismatic():
+    """With a prismatic joint the levers grow with |q| of the joint: W is monotone in
+    ``qabs``, equals the revolute-only part at qabs = 0, and max_abs reads the
+    configurations' largest |q| per coordinate."""
+    arm = mp.Arm.from_urdf(SLIDER_URDF)
+    checker = CollisionChecker(arm, World([Box((0.2, 0.2, 0.2), (0.8, 0.0, 0.3))]))
+    bounds = motion_bounds(arm.model, arm.collision_model, checker.geom_model)
+    assert bounds.prismatic is not None and bounds.constant is None and not bounds.unsupported
+    Q = np.array([[0.1, -0.2, 1.0], [-0.3, 0.35, 0.0]])
+    np.testing.assert_array_equal(max_abs(bounds, Q[:1], Q[1:]), [0.3, 0.35, 1.0])
+    W0 = pair_weights(bounds, np.zeros(3))
+    W1 = pair_weights(bounds, np.array([0.0, 0.4, 0.0]))
+    assert np.all(W1 >= W0) and np.any(W1 > W0)
+    # only the revolute joint 1 sees the prismatic extension (joint 3 is beyond it)
+    grew = W1 - W0
+    assert np.all(grew[:, 1:] == 0) and np.all(grew[:, 0] >= 0)
+
+
+@pytest.mark.parametrize("name", ["planar_3link", "planar_4link", "panda", "slider"])
 def test_displacement_bound(name):
     """Points of the geometries (AABB corners and random points inside), moved by forward
     kinematics along random segments in 400 steps: their path lengths never exceed the
     pair's bound. Obstacle pairs: the arm geometry's points in the world. Self pairs:
     both geometries' points in the frame of their deepest common joint (the distance
-    does not depend on the frame; the joints they share move both rigidly), summed."""
+    does not depend on the frame; the joints they share move both rigidly), summed.
+    "slider": revolute, prismatic (oblique axis), revolute out of the plane."""
     if name == "panda":
         arm = mp.Arm.from_example_robot_data("panda")
         world = World([Box((0.2, 0.2, 0.2), (0.5, 0.0, 0.4), name="box")])
+    elif name == "slider":
+        arm = mp.Arm.from_urdf(SLIDER_URDF)
+        world = World([Box((0.2, 0.2, 0.2), (0.8, 0.0, 0.3), name="box")])
     else:
         arm = mp.builtin_arm(name)
         world = scene(len(SPEC[name].lengths))
@@ -484,6 +585,15 @@ def test_panda_certified_edges():
     np.testing.assert_array_equal(loop, cert[:10])
     print(f"panda: certified {cert.mean():.3f}, fine discrete {fine.mean():.3f}, clear by 2 cm "
           f"{clear.mean():.3f}; {stats}")
+    # certified on the meshes themselves: never rejects what the hulls accept (a hull's
+    # clearance is at most its mesh's), and its fingerprint says so (the default's has no
+    # such key: roadmap keys built on it are unchanged)
+    plain = CollisionChecker(arm, world, certify_on_hulls=False)
+    on_mesh = plain.edges_free(Q0[:20], Q1[:20], 0.05)
+    assert plain.certification_hulls == [] and plain.copy().certify_on_hulls is False
+    assert not np.any(cert[:20] & ~on_mesh) and not np.any(on_mesh & ~fine[:20])
+    assert "certify_on_hulls" not in checker.describe()
+    assert plain.describe() == {**checker.describe(), "certify_on_hulls": False}
 
 
 def test_hazards():

@@ -43,7 +43,7 @@ def solve_position_ik(
         raise ValueError(f"arm {arm.name!r} has no frame {frame!r}")
     checker = None
     if world is not None:
-        from ..collision.checker import CollisionChecker
+        from ..collision import CollisionChecker
 
         checker = CollisionChecker(arm, world)
     model, data = arm.model, arm.model.createData()

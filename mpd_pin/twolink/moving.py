@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from ..arm.model import Arm
-from ..collision.checker import CollisionChecker
+from ..collision import CollisionChecker
 from ..world import Cylinder, World
 
 __all__ = [

@@ -23,7 +23,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..arm.model import Arm
-from ..collision.checker import CollisionChecker
+from ..collision import CollisionChecker
 from ..world import Hazard, World
 
 __all__ = ["Occupancy", "occupancy_analysis", "default_frame", "PLANES"]

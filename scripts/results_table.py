@@ -35,6 +35,11 @@ def _child_cpu() -> float:
     return ru.ru_utime + ru.ru_stime
 
 
+def _margin(m: float | None) -> str:
+    """A hazard margin (m); ``null`` in result.json is +∞ (no hazard to keep clear of)."""
+    return "unbounded" if m is None else f"{m:+.3f} m"
+
+
 def energy_row(name: str, r: dict) -> str:
     per_joint = " / ".join(f"{e:.4g}" for e in r["energy_per_joint"])
     cpu, wall = r["cpu_seconds_per_phase"], r["seconds_per_phase"]
@@ -45,10 +50,10 @@ def energy_row(name: str, r: dict) -> str:
     if "hazard_replanning" in r:
         h = r["hazard_replanning"]
         notes.append(
-            f"first path {h['first_total_energy']:.4g} J too close ({h['first_margin']:+.3f} m),"
-            f" re-planned ({h['final_margin']:+.3f} m)"
+            f"first path {h['first_total_energy']:.4g} J too close ({_margin(h['first_margin'])}),"
+            f" re-planned ({_margin(h['final_margin'])})"
             if h["first_path"] != h["final_path"]
-            else f"clearances kept ({h['final_margin']:+.3f} m)"
+            else f"clearances kept ({_margin(h['final_margin'])})"
         )
     return (
         f"| {name} | {r['arm']} | {per_joint} | {r['total_energy']:.4g} | "

@@ -22,6 +22,15 @@ ENERGY_SCENARIOS = [n for n, p in builtin_scenarios().items()
                     if load_scenario_data(p).get("kind", "energy") == "energy"]
 
 
+def _no_constant(name):
+    raise ValueError(f"result.json holds {name}, which strict JSON has not")
+
+
+def read_result(out):
+    """``out/result.json`` parsed by a strict parser: Infinity, -Infinity or NaN raise."""
+    return json.loads((out / "result.json").read_text(), parse_constant=_no_constant)
+
+
 def run_cli(*args, cwd=None):
     return subprocess.run([sys.executable, "-m", "mpd_pin", *args], capture_output=True,
                           text=True, cwd=cwd, timeout=900)
@@ -54,7 +63,7 @@ def builtin_run(tmp_path_factory):
 def test_builtin_energy_scenario_end_to_end(name, builtin_run):
     res, out = builtin_run(name)
     assert res.returncode == 0, res.stderr
-    result = json.loads((out / "result.json").read_text())
+    result = read_result(out)
     for fname in ("path.png", "joint_angles.png", "energy.png", "replay.html"):
         assert (out / fname).stat().st_size > 1000, fname
     scn = parse_energy_scenario(load_scenario_data(builtin_scenarios()[name]))
@@ -104,6 +113,23 @@ def test_builtin_energy_scenario_end_to_end(name, builtin_run):
         assert result["hazard_replanning"]["final_margin"] >= 0
 
 
+def test_hazard_result_is_strict_json_with_null_for_infinity(builtin_run):
+    """The hazard scenario removes edges (penalty ∞, floor unused): result.json parses with
+    a strict parser and says null there (HazardResult.to_dict), never "inf" or Infinity."""
+    res, out = builtin_run("hazard")
+    assert res.returncode == 0, res.stderr
+    text = (out / "result.json").read_text()
+    with pytest.raises(ValueError, match="strict JSON"):
+        json.loads('{"x": Infinity}', parse_constant=_no_constant)  # the parser is strict
+    result = read_result(out)
+    hz = result["hazard_replanning"]
+    assert hz["penalty"] is None and hz["penalty_floor"] is None
+    assert hz["penalised_edges"] and math.isfinite(hz["first_margin"])
+    assert result["motor"]["v_max"] is None  # no voltage limit
+    assert not any(t in text for t in ('"inf"', '"-inf"', '"nan"', "Infinity", "NaN"))
+    assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]  # atomic write, no leftover
+
+
 def _ee_positions(arm, Q):
     model, data = arm.model, arm.model.createData()
     fid = model.getFrameId("ee")
@@ -135,7 +161,7 @@ def test_replan_replay_html_decoded_and_rendered(builtin_run, tmp_path):
     replan (the time of node_times[step]), the end-effector traces, and a real picture."""
     res, out = builtin_run("replan")
     assert res.returncode == 0, res.stderr
-    result = json.loads((out / "result.json").read_text())
+    result = read_result(out)
     page = (out / "replay.html").read_text(encoding="utf-8")
     scn = parse_energy_scenario(load_scenario_data(builtin_scenarios()["replan"]))
     arm, drive, opts = scn.arm, scn.drive(), scn.options
@@ -240,7 +266,7 @@ def test_small_custom_scenario_runs(tmp_path):
     res = run_cli("run", str(_write(tmp_path, GOOD)), "--out", str(tmp_path / "o"), "--quiet",
                   "--no-replay", "--seed", "4")
     assert res.returncode == 0, res.stderr
-    result = json.loads((tmp_path / "o" / "result.json").read_text())
+    result = read_result(tmp_path / "o")
     assert result["roadmap"]["options"]["seed"] == 4
 
 
@@ -356,7 +382,7 @@ def test_per_joint_motor_tables(tmp_path):
     res = run_cli("run", str(_write(tmp_path, text)), "--out", str(tmp_path / "o"), "--quiet",
                   "--no-replay")
     assert res.returncode == 0, res.stderr
-    result = json.loads((tmp_path / "o" / "result.json").read_text())
+    result = read_result(tmp_path / "o")
     assert [m["gear_ratio"] for m in result["motor"]] == [50.0, 9.0]
     assert [m["Kt"] for m in result["motor"]] == [mp.SERVO_MOTOR.Kt, mp.PAPER_MOTOR.Kt]
 
@@ -437,7 +463,7 @@ def test_unexpected_exceptions_are_one_line(tmp_path, monkeypatch, capsys, exc, 
 
 
 def test_replay_indices_always_end_with_the_last_sample():
-    from mpd_pin.app.runner import replay_indices
+    from mpd_pin.app.outputs import replay_indices
 
     assert replay_indices(1).tolist() == [0]
     assert replay_indices(2).tolist() == [0, 1]
@@ -463,7 +489,7 @@ def test_finite_hazard_penalty_reports_unpenalised_energy(tmp_path):
     """With hazard_penalty = 1.2 the re-planned path still takes two penalised edges (each
     1.2 times dearer to the planner); the reported energy is the edges' own E⁺."""
     from mpd_pin.app.runner import run_energy_scenario
-    from mpd_pin.planning.execution import HazardClearanceWarning, penalised_cost
+    from mpd_pin.planning.hazards import HazardClearanceWarning, penalised_cost
 
     data = load_scenario_data(builtin_scenarios()["hazard"])
     data["planner"] = {"hazard_penalty": 1.2}
@@ -602,27 +628,3 @@ def test_malformed_urdf(tmp_path, urdf, line):
     expected = line.format(path=tmp_path / "arm.urdf")
     _assert_one_line_error(res, expected)
     assert res.stderr.startswith(expected)
-
-
-def test_penalised_roadmap_matches_the_hazard_planner_rule():
-    """The runner's planning copy costs each penalised edge penalised_cost(cost, penalty,
-    floor) (execution.py's rule, zero-cost edges included), leaves the rest and the
-    original untouched, and keeps per-joint energies proportional."""
-    from mpd_pin.app.runner import penalised_roadmap
-    from mpd_pin.planning.execution import penalised_cost
-    from mpd_pin.planning.roadmap import Roadmap
-
-    energy = np.array([[1.0, 3.0], [2.0, 2.0], [0.0, 0.0], [0.0, 0.0], [5.0, 1.0], [0.5, 0.5]])
-    src, dst = np.array([0, 1, 1, 2, 2, 3]), np.array([1, 0, 2, 1, 3, 2])
-    rm = Roadmap(nodes=np.zeros((4, 2)), start=0, goal=3, src=src, dst=dst,
-                 durations=np.ones(6), energy=energy.copy(), key="k", timings={})
-    pen = penalised_roadmap(rm, [(1, 0), (1, 2)], 3.0, 10.0)
-    np.testing.assert_array_equal(rm.energy, energy)  # the original is not modified
-    expected = [penalised_cost(c, 3.0, 10.0) for c in energy.sum(axis=1)[:4]]
-    assert expected == [14.0, 14.0, 10.0, 10.0]
-    np.testing.assert_allclose(pen.cost[:4], expected, rtol=1e-15)
-    np.testing.assert_allclose(pen.energy[0], [3.5, 10.5], rtol=1e-15)  # proportional
-    np.testing.assert_allclose(pen.energy[2], [5.0, 5.0], rtol=1e-15)  # zero cost: evenly
-    np.testing.assert_array_equal(pen.energy[4:], energy[4:])
-    inf = penalised_roadmap(rm, [(2, 3)], math.inf, 0.0)
-    assert np.all(np.isinf(inf.cost[4:])) and np.array_equal(inf.cost[:4], rm.cost[:4])

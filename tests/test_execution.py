@@ -9,16 +9,17 @@ import numpy as np
 import pytest
 
 import mpd_pin as mp
+from mpd_pin.app.results import to_jsonable
 from mpd_pin.collision import CollisionChecker
 from mpd_pin.dynamics import EnergyCost
-from mpd_pin.planning.execution import (
+from mpd_pin.planning.execution import blocked_edges, execute
+from mpd_pin.planning.hazards import (
     HazardClearanceWarning,
-    blocked_edges,
-    execute,
     penalised_cost,
+    penalised_roadmap,
     plan_avoiding_hazards,
 )
-from mpd_pin.planning.roadmap import RoadmapOptions, build_roadmap
+from mpd_pin.planning.roadmap import Roadmap, RoadmapOptions, build_roadmap
 from mpd_pin.search import Dijkstra
 from mpd_pin.world import Box, Cylinder, Hazard, Polygon, World
 
@@ -154,7 +155,8 @@ def test_hazard_replanning(hazard_setup):
     assert res.first_margin < 0, "the scenario must make the cheapest path violate the clearance"
     assert res.final_margin >= 0
     assert res.satisfied is True and res.to_dict()["satisfied"] is True
-    assert res.penalty == math.inf and res.to_dict()["penalty_floor"] is None
+    assert res.penalty == math.inf and res.penalty_floor == math.inf  # floor unused
+    assert to_jsonable(res.to_dict())["penalty_floor"] is None  # null in result.json
     assert res.rounds >= 1 and res.penalised
     assert res.final_energy.sum() >= res.first_energy.sum()
     # Brute-force margin of the final path at the check resolution.
@@ -177,6 +179,41 @@ def test_hazard_replanning(hazard_setup):
     with pytest.raises(ValueError, match="penalty_floor"):
         plan_avoiding_hazards(rm, checker, resolution=0.05, penalty=2.0, penalty_floor=-1.0)
     assert math.isfinite(res.plan_seconds)
+
+
+def test_planning_roadmap_carries_the_hazard_penalties(hazard_setup):
+    """Planning on HazardResult.planning_roadmap (what the runner hands to execution) finds
+    the re-planned path at the cost the hazard planner found it, for ∞ and finite penalties."""
+    arm, checker, rm = hazard_setup
+    for penalty in (math.inf, 10.0):
+        res = plan_avoiding_hazards(rm, checker, resolution=OPTIONS.resolution, penalty=penalty)
+        assert res.penalised
+        pm = res.planning_roadmap(rm)
+        np.testing.assert_array_equal(pm.nodes, rm.nodes)
+        path = Dijkstra(pm.graph(), pm.start, pm.goal).plan()
+        G = _penalised_nx(rm, res.penalised, penalty, res.penalty_floor)
+        assert path.cost == pytest.approx(_sum_costs(G, res.final_path), rel=1e-12)
+        assert path.cost == pytest.approx(nx.dijkstra_path_length(G, rm.start, rm.goal), rel=1e-12)
+
+
+def test_penalised_roadmap_scales_energies_by_the_hazard_rule():
+    """The planning copy costs each penalised edge penalised_cost(cost, penalty, floor)
+    (zero-cost edges included), leaves the rest and the original untouched, and keeps
+    per-joint energies proportional."""
+    energy = np.array([[1.0, 3.0], [2.0, 2.0], [0.0, 0.0], [0.0, 0.0], [5.0, 1.0], [0.5, 0.5]])
+    src, dst = np.array([0, 1, 1, 2, 2, 3]), np.array([1, 0, 2, 1, 3, 2])
+    rm = Roadmap(nodes=np.zeros((4, 2)), start=0, goal=3, src=src, dst=dst,
+                 durations=np.ones(6), energy=energy.copy(), key="k", timings={})
+    pen = penalised_roadmap(rm, [(1, 0), (1, 2)], 3.0, 10.0)
+    np.testing.assert_array_equal(rm.energy, energy)  # the original is not modified
+    expected = [penalised_cost(c, 3.0, 10.0) for c in energy.sum(axis=1)[:4]]
+    assert expected == [14.0, 14.0, 10.0, 10.0]
+    np.testing.assert_allclose(pen.cost[:4], expected, rtol=1e-15)
+    np.testing.assert_allclose(pen.energy[0], [3.5, 10.5], rtol=1e-15)  # proportional
+    np.testing.assert_allclose(pen.energy[2], [5.0, 5.0], rtol=1e-15)  # zero cost: evenly
+    np.testing.assert_array_equal(pen.energy[4:], energy[4:])
+    inf = penalised_roadmap(rm, [(2, 3)], math.inf, 0.0)
+    assert np.all(np.isinf(inf.cost[4:])) and np.array_equal(inf.cost[:4], rm.cost[:4])
 
 
 def test_penalised_cost_is_at_least_an_additive_floor() -> None:

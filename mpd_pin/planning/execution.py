@@ -1,26 +1,20 @@
 """Executing a roadmap path while the world changes (paper 000 §5.2; docs/design.md §5).
 
-* :func:`execute` — the arm moves node by node along the planned path. Before
-  each move a sensor looks for obstacles that are not on the map: every hidden
-  obstacle within ``sensor_range`` (m) of the arm, at its current configuration
-  or anywhere along the edge it is about to take, is revealed. The roadmap edges
-  that now collide are set to ∞ in the planner, which repairs its plan from the
-  current node (MPD* Lite: incremental). The result records every replan and the
-  path actually travelled with its energy.
-* :func:`plan_avoiding_hazards` — a path that passes closer to a "No Enter"
-  zone than its clearance is re-planned with the offending edges removed (or,
-  for a finite penalty, made dearer: see :func:`penalised_cost`), LazySP-style:
-  only edges on candidate paths are checked, until the path keeps every
-  clearance. :attr:`HazardResult.satisfied` says whether it does in the end (a
-  finite penalty can leave a violating path cheapest; a
-  :class:`HazardClearanceWarning` is issued then).
+:func:`execute` — the arm moves node by node along the planned path. Before
+each move a sensor looks for obstacles that are not on the map: every hidden
+obstacle within ``sensor_range`` (m) of the arm, at its current configuration
+or anywhere along the edge it is about to take, is revealed. The roadmap edges
+that now collide (:func:`blocked_edges`) are set to ∞ in the planner, which
+repairs its plan from the current node (MPD* Lite: incremental). The result
+records every replan and the path actually travelled with its energy.
+
+Re-planning around "No Enter" zones is :mod:`mpd_pin.planning.hazards`.
 """
 
 from __future__ import annotations
 
 import math
 import time
-import warnings
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 
@@ -31,16 +25,7 @@ from ..search import MPDStarLite, Planner
 from ..world import World
 from .roadmap import Roadmap
 
-__all__ = [
-    "ReplanEvent",
-    "ExecutionResult",
-    "HazardResult",
-    "HazardClearanceWarning",
-    "execute",
-    "plan_avoiding_hazards",
-    "penalised_cost",
-    "blocked_edges",
-]
+__all__ = ["ReplanEvent", "ExecutionResult", "execute", "blocked_edges"]
 
 PlannerFactory = Callable[..., Planner]
 
@@ -219,171 +204,3 @@ def execute(
         step += 1
     result.energy = roadmap.path_energy(result.travelled)
     return result
-
-
-# ------------------------------------------------------------------------ hazards
-class HazardClearanceWarning(UserWarning):
-    """plan_avoiding_hazards ended with a path that still violates a hazard clearance."""
-
-
-def penalised_cost(cost: float, penalty: float, floor: float) -> float:
-    """Cost of an edge too close to a hazard: ``max(cost * penalty, cost + floor)``.
-
-    ``penalty`` ≥ 1 is the multiplicative factor (``math.inf`` removes the edge:
-    the result is ∞ whatever ``cost``); ``floor`` ≥ 0 (cost units, J) is an
-    additive minimum, so that edges of zero (or tiny) cost are penalised too —
-    a product alone leaves a zero-cost edge free.
-    """
-    if not math.isfinite(penalty):
-        return math.inf
-    return max(cost * penalty, cost + floor)
-
-
-@dataclass
-class HazardResult:
-    """Outcome of :func:`plan_avoiding_hazards`.
-
-    first_path / final_path: node ids; *_energy: E⁺ per joint (J);
-    *_margin: min over the path of (distance to a hazard − its clearance) (m);
-    penalised: the undirected edges removed or penalised; rounds: re-plans;
-    satisfied: ``final_margin >= 0`` (the final path keeps every clearance);
-    penalty, penalty_floor: the factor and the additive floor (J) used by
-    :func:`penalised_cost` (floor unused, reported as ∞ -> None in JSON, when the
-    penalty is ∞).
-    """
-
-    first_path: list[int]
-    first_energy: np.ndarray
-    first_margin: float
-    final_path: list[int]
-    final_energy: np.ndarray
-    final_margin: float
-    penalised: list[tuple[int, int]]
-    rounds: int
-    plan_seconds: float
-    satisfied: bool
-    penalty: float
-    penalty_floor: float
-
-    def to_dict(self) -> dict:
-        return {
-            "first_path": [int(n) for n in self.first_path],
-            "first_energy_per_joint": [float(e) for e in self.first_energy],
-            "first_total_energy": float(np.sum(self.first_energy)),
-            "first_margin": float(self.first_margin),
-            "final_path": [int(n) for n in self.final_path],
-            "final_energy_per_joint": [float(e) for e in self.final_energy],
-            "final_total_energy": float(np.sum(self.final_energy)),
-            "final_margin": float(self.final_margin),
-            "satisfied": bool(self.satisfied),
-            "penalty": float(self.penalty),
-            "penalty_floor": (
-                float(self.penalty_floor) if math.isfinite(self.penalty_floor) else None
-            ),
-            "penalised_edges": [[int(u), int(v)] for u, v in self.penalised],
-            "rounds": self.rounds,
-            "plan_seconds": self.plan_seconds,
-        }
-
-
-def plan_avoiding_hazards(
-    roadmap: Roadmap,
-    checker: CollisionChecker,
-    *,
-    resolution: float,
-    penalty: float = math.inf,
-    penalty_floor: float | None = None,
-    planner: PlannerFactory = MPDStarLite,
-) -> HazardResult:
-    """Plan, then re-plan until the path keeps every hazard's clearance (Fig. 17).
-
-    Edges whose configurations (at ``resolution`` rad) come closer to a hazard
-    than its clearance get the cost ``penalised_cost(cost, penalty, floor)``
-    (∞ = removed), both directions, and MPD* Lite repairs. ``penalty_floor``
-    (J, ≥ 0) is the additive minimum; ``None`` means ``(penalty − 1)`` times the
-    mean positive finite edge cost of the roadmap (1 J if it has none), so a
-    zero-cost edge is penalised like an edge of average cost. Stops when the
-    path keeps all clearances or when every offending edge on it is already
-    penalised; in the latter case the result has ``satisfied=False`` and a
-    :class:`HazardClearanceWarning` is issued. With ``penalty=inf`` (the
-    default) an unsatisfiable clearance raises :class:`~mpd_pin.NoPathError`
-    instead, as the offending edges are removed.
-    """
-    if not (penalty >= 1.0):
-        raise ValueError(f"penalty must be ≥ 1 (or inf to remove edges), got {penalty!r}")
-    if penalty_floor is not None and not (math.isfinite(penalty_floor) and penalty_floor >= 0.0):
-        raise ValueError(f"penalty_floor must be finite and ≥ 0 (J), got {penalty_floor!r}")
-    graph = roadmap.graph()
-    if not math.isfinite(penalty):
-        floor = math.inf
-    elif penalty_floor is not None:
-        floor = float(penalty_floor)
-    else:
-        c = np.asarray(roadmap.cost, dtype=float)
-        c = c[np.isfinite(c) & (c > 0)]
-        floor = (penalty - 1.0) * (float(c.mean()) if c.size else 1.0)
-    p = planner(graph, roadmap.start, roadmap.goal)
-    margins: dict[tuple[int, int], float] = {}
-
-    def edge_margin(u: int, v: int) -> float:
-        key = (min(u, v), max(u, v))
-        if key not in margins:
-            Q = edge_configurations(roadmap.nodes[key[0]], roadmap.nodes[key[1]], resolution)
-            margins[key] = min(checker.hazard_margin(q) for q in Q)
-        return margins[key]
-
-    t0 = time.perf_counter()
-    path = p.plan()
-    first = list(path.nodes)
-    penalised: list[tuple[int, int]] = []
-    done: set[tuple[int, int]] = set()
-    rounds = 0
-    while True:
-        bad = []
-        for u, v in path.edges:
-            key = (min(u, v), max(u, v))
-            if key not in done and edge_margin(u, v) < 0:
-                done.add(key)
-                bad.append(key)
-        if not bad:
-            break
-        for u, v in bad:
-            penalised.append((u, v))
-            for a, b in ((u, v), (v, u)):
-                if graph.has_edge(a, b):
-                    p.update_edge(a, b, penalised_cost(graph.cost(a, b), penalty, floor))
-        path = p.plan()
-        rounds += 1
-    seconds = time.perf_counter() - t0
-
-    def path_margin(nodes: list[int]) -> float:
-        if len(nodes) == 1:
-            return checker.hazard_margin(roadmap.nodes[nodes[0]])
-        return min(edge_margin(u, v) for u, v in zip(nodes[:-1], nodes[1:], strict=True))
-
-    final = list(path.nodes)
-    final_margin = path_margin(final)
-    satisfied = bool(final_margin >= 0.0)
-    if not satisfied:
-        warnings.warn(
-            f"plan_avoiding_hazards: the final path still comes {-final_margin:.4g} m closer "
-            f"to a hazard than its clearance (penalty {penalty:g}, floor {floor:.4g} J): with "
-            "a finite penalty the violating path stayed the cheapest; raise the penalty or "
-            "use inf to remove those edges",
-            HazardClearanceWarning,
-            stacklevel=2,
-        )
-    return HazardResult(
-        first_path=first,
-        first_energy=roadmap.path_energy(first),
-        first_margin=path_margin(first),
-        final_path=final,
-        final_energy=roadmap.path_energy(final),
-        final_margin=final_margin,
-        penalised=penalised,
-        rounds=rounds,
-        plan_seconds=seconds,
-        satisfied=satisfied,
-        penalty=float(penalty),
-        penalty_floor=floor,
-    )

@@ -363,6 +363,97 @@ def _check_endpoint(arm, checker, q, what: str) -> np.ndarray:
     return q
 
 
+def _tqdm(show_progress: bool):
+    """The progress-bar class: ``tqdm.auto`` when shown, plain ``tqdm`` when not (tqdm.auto
+    warns in Jupyter without ipywidgets even when disabled)."""
+    if show_progress:
+        from tqdm.auto import tqdm
+    else:
+        from tqdm import tqdm
+    return tqdm
+
+
+def _checker_fingerprint(arm, checker, checker_fingerprint: str | None) -> str:
+    """ValueError unless ``checker`` checks ``arm``; the fingerprint of its free space
+    (``checker_fingerprint`` if given, else ``checker.fingerprint()``)."""
+    checker_arm = getattr(checker, "arm", None)
+    if checker_arm is not arm and (
+        not callable(getattr(checker_arm, "fingerprint", None))
+        or checker_arm.fingerprint() != arm.fingerprint()
+    ):
+        raise ValueError(
+            f"the checker's arm ({getattr(checker_arm, 'name', None)!r}) is not the arm the cost "
+            f"drives ({arm.name!r}); build both from the same Arm"
+        )
+    if checker_fingerprint is not None:
+        return checker_fingerprint
+    if not callable(getattr(checker, "fingerprint", None)):
+        raise ValueError(
+            f"checker {type(checker).__name__} has no fingerprint(); pass "
+            "checker_fingerprint= (a string that changes whenever its free space does)"
+        )
+    # The world as the checker sees it (known obstacles, or all with include_hidden)
+    # and every setting that changes which configurations and edges are free.
+    return checker.fingerprint()
+
+
+def _sample_nodes(checker, arm, start, goal, options: RoadmapOptions, tqdm, show_progress):
+    """Sampling: start, goal, then ``options.num_nodes`` free samples (seeded)."""
+    rng = np.random.default_rng(options.seed)
+    with tqdm(
+        total=options.num_nodes,
+        desc="sampling",
+        unit="node",
+        disable=not show_progress,
+        leave=False,
+    ) as bar:
+        samples = _sample_free(
+            checker,
+            arm.lower_limits,
+            arm.upper_limits,
+            options.num_nodes,
+            rng,
+            options.max_attempts,
+            progress=lambda h: bar.update(h - bar.n),
+        )
+    return np.vstack([start, goal, samples])
+
+
+def _neighbour_pairs(nodes: np.ndarray, k: int) -> np.ndarray:
+    """Connection: (P, 2) unique undirected pairs u < v joining each node to its ``k``
+    nearest neighbours (joint-space Euclidean, ``cKDTree``)."""
+    n = nodes.shape[0]
+    k = min(k, n - 1)
+    tree = cKDTree(nodes)
+    _, nbr = tree.query(nodes, k=k + 1)
+    nbr = np.asarray(nbr).reshape(n, k + 1)
+    a = np.repeat(np.arange(n), k + 1)
+    b = nbr.ravel()
+    keep = (b != a) & (b < n)
+    lo, hi = np.minimum(a[keep], b[keep]), np.maximum(a[keep], b[keep])
+    return np.unique(np.stack([lo, hi], axis=1), axis=0) if lo.size else np.zeros((0, 2), int)
+
+
+def _free_pairs(checker, nodes: np.ndarray, pairs: np.ndarray, resolution: float) -> np.ndarray:
+    """Collision filtering: the pairs whose straight edge is free at ``resolution`` rad."""
+    if not len(pairs):
+        return pairs[np.zeros(0, bool)]
+    free = checker.edges_free(nodes[pairs[:, 0]], nodes[pairs[:, 1]], resolution)
+    return pairs[np.asarray(free, dtype=bool)]
+
+
+def _cost_edges(cost: EnergyCost, nodes, pairs, options: RoadmapOptions, tqdm, show_progress):
+    """Costing: both directions of every pair, their durations (s) and E⁺ per joint (J)."""
+    src = np.concatenate([pairs[:, 0], pairs[:, 1]]).astype(np.int64)
+    dst = np.concatenate([pairs[:, 1], pairs[:, 0]]).astype(np.int64)
+    durations = options.durations(nodes[src], nodes[dst])
+    with tqdm(
+        total=src.size, desc="edge energies", unit="edge", disable=not show_progress, leave=False
+    ) as bar:
+        energy = cost(nodes[src], nodes[dst], durations, progress=lambda d: bar.update(d - bar.n))
+    return src, dst, durations, np.asarray(energy, float)
+
+
 def build_roadmap(
     cost: EnergyCost,
     checker,
@@ -386,31 +477,10 @@ def build_roadmap(
     """
     import time
 
-    if show_progress:
-        from tqdm.auto import tqdm
-    else:  # tqdm.auto warns in Jupyter without ipywidgets even when disabled
-        from tqdm import tqdm
-
+    tqdm = _tqdm(show_progress)
     options = options or RoadmapOptions()
     arm = cost.drive.arm
-    checker_arm = getattr(checker, "arm", None)
-    if checker_arm is not arm and (
-        not callable(getattr(checker_arm, "fingerprint", None))
-        or checker_arm.fingerprint() != arm.fingerprint()
-    ):
-        raise ValueError(
-            f"the checker's arm ({getattr(checker_arm, 'name', None)!r}) is not the arm the cost "
-            f"drives ({arm.name!r}); build both from the same Arm"
-        )
-    if checker_fingerprint is None:
-        if not callable(getattr(checker, "fingerprint", None)):
-            raise ValueError(
-                f"checker {type(checker).__name__} has no fingerprint(); pass "
-                "checker_fingerprint= (a string that changes whenever its free space does)"
-            )
-        # The world as the checker sees it (known obstacles, or all with include_hidden)
-        # and every setting that changes which configurations and edges are free.
-        checker_fingerprint = checker.fingerprint()
+    checker_fingerprint = _checker_fingerprint(arm, checker, checker_fingerprint)
     start = _check_endpoint(arm, checker, start, "start")
     goal = _check_endpoint(arm, checker, goal, "goal")
     key = Roadmap.key_for(cost, checker_fingerprint, options, start, goal)
@@ -420,61 +490,17 @@ def build_roadmap(
             return Roadmap.load(cache, expected_key=key, nq=arm.nq)
 
     timings: dict[str, float] = {}
-    rng = np.random.default_rng(options.seed)
-    lower, upper = arm.lower_limits, arm.upper_limits
     t0 = time.perf_counter()
-    with tqdm(
-        total=options.num_nodes,
-        desc="sampling",
-        unit="node",
-        disable=not show_progress,
-        leave=False,
-    ) as bar:
-        samples = _sample_free(
-            checker,
-            lower,
-            upper,
-            options.num_nodes,
-            rng,
-            options.max_attempts,
-            progress=lambda h: bar.update(h - bar.n),
-        )
-    nodes = np.vstack([start, goal, samples])
+    nodes = _sample_nodes(checker, arm, start, goal, options, tqdm, show_progress)
     timings["sampling"] = time.perf_counter() - t0
-
     t0 = time.perf_counter()
-    n = nodes.shape[0]
-    k = min(options.k, n - 1)
-    tree = cKDTree(nodes)
-    _, nbr = tree.query(nodes, k=k + 1)
-    nbr = np.asarray(nbr).reshape(n, k + 1)
-    a = np.repeat(np.arange(n), k + 1)
-    b = nbr.ravel()
-    keep = (b != a) & (b < n)
-    lo, hi = np.minimum(a[keep], b[keep]), np.maximum(a[keep], b[keep])
-    pairs = np.unique(np.stack([lo, hi], axis=1), axis=0) if lo.size else np.zeros((0, 2), int)
+    pairs = _neighbour_pairs(nodes, options.k)
     timings["neighbours"] = time.perf_counter() - t0
-
     t0 = time.perf_counter()
-    free = (
-        np.asarray(
-            checker.edges_free(nodes[pairs[:, 0]], nodes[pairs[:, 1]], options.resolution),
-            dtype=bool,
-        )
-        if len(pairs)
-        else np.zeros(0, bool)
-    )
-    pairs = pairs[free]
+    pairs = _free_pairs(checker, nodes, pairs, options.resolution)
     timings["edge_checks"] = time.perf_counter() - t0
-
     t0 = time.perf_counter()
-    src = np.concatenate([pairs[:, 0], pairs[:, 1]]).astype(np.int64)
-    dst = np.concatenate([pairs[:, 1], pairs[:, 0]]).astype(np.int64)
-    durations = options.durations(nodes[src], nodes[dst])
-    with tqdm(
-        total=src.size, desc="edge energies", unit="edge", disable=not show_progress, leave=False
-    ) as bar:
-        energy = cost(nodes[src], nodes[dst], durations, progress=lambda d: bar.update(d - bar.n))
+    src, dst, durations, energy = _cost_edges(cost, nodes, pairs, options, tqdm, show_progress)
     timings["edge_energies"] = time.perf_counter() - t0
 
     roadmap = Roadmap(
@@ -484,7 +510,7 @@ def build_roadmap(
         src=src,
         dst=dst,
         durations=durations,
-        energy=np.asarray(energy, float),
+        energy=energy,
         key=key,
         timings=timings,
     )

@@ -1,0 +1,133 @@
+"""The plan step of a run: roadmap, then one of three searches (paper 000 §5; docs/design.md §4–§5).
+
+:func:`prepare` builds the drive, the collision checker and the energy roadmap of a
+scenario. :func:`plan_path` then finds the path, in one of three modes:
+
+* plain — one search on the roadmap with the scenario's planner (``mpd_pin.search.PLANNERS``);
+* hazards (a hazard with clearance > 0) — :func:`~mpd_pin.planning.hazards.plan_avoiding_hazards`
+  re-plans until the path keeps every clearance; what follows plans on its penalised costs;
+* execution (hidden obstacles) — :func:`~mpd_pin.planning.execution.execute` moves along the
+  plan, senses and repairs; the path is the one travelled.
+
+Energies are always the roadmap's own (unpenalised) E⁺.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..collision.checker import CollisionChecker
+from ..dynamics import EnergyCost
+from ..dynamics.motor import Drive
+from ..planning.execution import ExecutionResult, execute
+from ..planning.hazards import HazardResult, plan_avoiding_hazards
+from ..planning.roadmap import Roadmap, build_roadmap
+from ..search import PLANNERS
+from ..world import World
+from .scenario import EnergyScenario
+
+__all__ = ["Setup", "PlanResult", "prepare", "plan_path"]
+
+
+@dataclass
+class Setup:
+    """What a scenario plans on: its drive, world, planning checker and roadmap.
+
+    world_record: the world as given (``World.to_dict``, before any obstacle is revealed).
+    """
+
+    drive: Drive
+    world: World
+    checker: CollisionChecker
+    roadmap: Roadmap
+    world_record: dict[str, Any]
+
+
+@dataclass
+class PlanResult:
+    """The path found by :func:`plan_path`.
+
+    path: node ids, start … goal (the travelled ones with hidden obstacles);
+    energy: its E⁺ per joint (J) from the unpenalised roadmap;
+    search: ``initial_plan_seconds`` (s), ``expansions`` (and ``edge_evaluations`` for a
+    plain search) of the first plan;
+    hazard / execution: the hazard re-planning and the execution, when they ran;
+    other_paths: plans not followed (name → node ids), drawn for comparison.
+    """
+
+    path: list[int]
+    energy: np.ndarray
+    search: dict[str, float | int]
+    hazard: HazardResult | None = None
+    execution: ExecutionResult | None = None
+    other_paths: dict[str, list[int]] = field(default_factory=dict)
+
+
+def prepare(
+    scn: EnergyScenario, *, cache: Path | None = None, show_progress: bool = True
+) -> Setup:
+    """Build the drive, the planning checker (known obstacles) and the roadmap of ``scn``
+    (loaded from ``cache``, a ``.npz``, when it was built with the same key)."""
+    drive = scn.drive()
+    world = scn.world
+    world.reset()
+    checker = CollisionChecker(scn.arm, world)
+    cost = EnergyCost(drive, scn.options.dt)
+    roadmap = build_roadmap(
+        cost, checker, scn.start, scn.goal, scn.options, cache=cache, show_progress=show_progress
+    )
+    return Setup(drive, world, checker, roadmap, world.to_dict())
+
+
+def plan_path(scn: EnergyScenario, setup: Setup) -> PlanResult:
+    """Find the path of ``scn`` on ``setup.roadmap``: hazard re-planning first if the world
+    has hazards with a clearance, then execution with sensing if it has hidden obstacles,
+    else one search."""
+    planner = PLANNERS[scn.planner]
+    roadmap, world = setup.roadmap, setup.world
+    hazard = None
+    other_paths: dict[str, list[int]] = {}
+    plan_map = roadmap  # what the planner sees: hazard penalties applied
+    if any(h.clearance > 0 for h in world.hazards):
+        hazard = plan_avoiding_hazards(
+            roadmap,
+            setup.checker,
+            resolution=scn.options.resolution,
+            penalty=scn.hazard_penalty,
+            planner=planner,
+        )
+        if hazard.first_path != hazard.final_path:
+            other_paths["cheapest path (too close to a hazard)"] = hazard.first_path
+        plan_map = hazard.planning_roadmap(roadmap)
+    if world.hidden_names():
+        run = execute(
+            plan_map,
+            setup.checker,
+            sensor_range=float(scn.sensor_range),
+            resolution=scn.options.resolution,
+            planner=planner,
+        )
+        run.energy = roadmap.path_energy(run.travelled)  # the planner's costs may be penalised
+        if run.initial_path != run.travelled:
+            other_paths["initial plan (before the new obstacle)"] = run.initial_path
+        search = {
+            "initial_plan_seconds": run.initial_plan_seconds,
+            "expansions": run.initial_expansions,
+        }
+        return PlanResult(run.travelled, run.energy, search, hazard, run, other_paths)
+    p = planner(plan_map.graph(), roadmap.start, roadmap.goal)
+    ts = time.perf_counter()
+    plan = p.plan()
+    search = {
+        "initial_plan_seconds": time.perf_counter() - ts,
+        "expansions": p.stats.expansions,
+        "edge_evaluations": p.stats.edge_evaluations,
+    }
+    # With hazards the path is the re-planned one (penalised costs); else the plan.
+    path = list(hazard.final_path) if hazard is not None else list(plan.nodes)
+    return PlanResult(path, roadmap.path_energy(path), search, hazard, None, other_paths)

@@ -26,25 +26,15 @@ from __future__ import annotations
 
 import argparse
 import os
-import time
-from collections.abc import Callable
 
 import numpy as np
 import pinocchio as pin
 from scipy.spatial import cKDTree
 
 import mpd_pin as mp
+from common import best_of
 from mpd_pin.collision import CollisionChecker, bisection_order, edge_configurations
 from mpd_pin.world import Box, Cylinder, World
-
-
-def best_of(fn: Callable[[], object], repeat: int = 3) -> tuple[float, object]:
-    best, out = float("inf"), None
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
-    return best, out
 
 
 def planar_scene() -> tuple[mp.Arm, World]:

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..collision.checker import CollisionChecker
+from ..collision import CollisionChecker
 from ..dynamics import EnergyCost
 from ..dynamics.motor import Drive
 from ..planning.execution import ExecutionResult, execute

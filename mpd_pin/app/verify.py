@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..collision.checker import edge_configurations
+from ..collision import edge_configurations
 from ..dynamics.motor import Drive
 from ..dynamics.simulate import simulate_edge
 from ..planning.roadmap import Roadmap

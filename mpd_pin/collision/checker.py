@@ -49,16 +49,11 @@ from .motion import (
     certification_model,
     certify,
     edge_collides_discrete,
-    edge_configurations,  # noqa: F401  (imported from here elsewhere: see the note below)
     edges_collide_discrete,
 )
 from .validity import PoolLoader, QueryState, collides
 
 __all__ = ["CollisionChecker"]
-
-# ``edge_configurations`` lives in motion.py; planning/execution.py and app/runner.py still
-# import it from this module. Remove the import above once they import it from
-# mpd_pin.collision.
 
 
 class CollisionChecker:

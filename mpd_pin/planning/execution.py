@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from ..collision.checker import CollisionChecker, edge_configurations
+from ..collision import CollisionChecker, edge_configurations
 from ..search import MPDStarLite, Planner
 from ..world import World
 from .roadmap import Roadmap

@@ -21,7 +21,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..collision.checker import CollisionChecker, edge_configurations
+from ..collision import CollisionChecker, edge_configurations
 from ..search import MPDStarLite, Planner
 from .roadmap import Roadmap
 

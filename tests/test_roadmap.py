@@ -281,7 +281,7 @@ def test_corrupt_file_is_refused_clearly(setup, tmp_path):
 def _resave_with_valid_checksum(path, data):
     """Write ``data`` (the .npz fields) with a checksum recomputed as the format defines it:
     SHA-256 of the key, then of each array (sorted by name) as "name:dtype:shape" + bytes."""
-    names = ("nodes", "endpoints", "src", "dst", "durations", "energy")
+    names = ("nodes", "endpoints", "src", "dst", "durations", "energy", "edge_counts")
     h = hashlib.sha256(str(data["key"]).encode())
     for name in sorted(names):
         a = np.ascontiguousarray(data[name])
@@ -308,6 +308,8 @@ CRAFTED = {
     "infinite node": (lambda d, n: {"nodes": d["nodes"] * np.inf}, "NaN or infinity"),
     "flat nodes": (lambda d, n: {"nodes": d["nodes"].ravel()}, "nodes must be"),
     "self loop": (lambda d, n: {"dst": d["src"].copy()}, "self-loop"),
+    "negative edge count": (lambda d, n: {"edge_counts": np.array([0, -1, 0])}, "edge_counts"),
+    "two edge counts": (lambda d, n: {"edge_counts": np.array([0, 0])}, "edge_counts"),
 }
 
 
@@ -435,3 +437,68 @@ def test_sampling_gives_up_clearly():
 
     with pytest.raises(ValueError, match="free space is too small"):
         build_roadmap(EnergyCost(drive), Wrapper(), start, goal, opts, show_progress=False)
+
+
+def test_velocity_timing_is_the_smallest_quantum_multiple_within_the_limit():
+    """RoadmapOptions.timing against brute force: T is the rule's duration, or the smallest
+    multiple of the quantum at which the quintic's peak speed 1.875·|Δq|/T is within every
+    joint's limit (joints without a positive finite limit unconstrained)."""
+    rng = np.random.default_rng(11)
+    Q0 = rng.uniform(-2, 2, (300, 3))
+    Q1 = Q0 + rng.normal(0.0, 1.0, (300, 3))
+    vlim = np.array([2.0, 0.0, 3.0])  # joint 2 has no limit in its URDF
+    for opts in (OPTIONS, RoadmapOptions(duration_rule="distance", joint_speed=2.0)):
+        T, raised = opts.timing(Q0, Q1, vlim)
+        base = opts.timing(Q0, Q1, None)[0]
+        for k in range(len(Q0)):
+            t = base[k]
+            cand = [t] + [m * opts.duration_quantum for m in range(1, 400)]
+            ok = [c for c in cand if c >= t - 1e-12 and all(
+                1.875 * abs(Q1[k, j] - Q0[k, j]) / c <= vlim[j] * (1 + 1e-9) for j in (0, 2))]
+            assert T[k] == pytest.approx(min(ok), abs=1e-12)
+            assert raised[k] == (T[k] > base[k] + 1e-12)
+        assert raised.any() and not raised.all()
+
+
+def test_edges_a_weak_motor_cannot_follow_are_refused_not_costed():
+    """A PD-only drive behind a saturated weak supply misses many nodes: those edges are
+    refused and counted; every kept edge, re-simulated, ends within the tolerance, and the
+    refused ones really miss (checked on a sample by simulate_edge)."""
+    arm = mp.builtin_arm("planar_3link")
+    motor = mp.DCMotor(R=1.0, L=0.5, Kt=0.01, Ke=0.02, B=0.1, J=0.01, gear_ratio=5.0, v_max=30.0)
+    drive = mp.Drive(arm, motor, kp=40.0, kd=4.0, feedforward=False)
+    checker = CollisionChecker(arm, World(()))
+    rm = build_roadmap(EnergyCost(drive, OPTIONS.dt), checker, START, GOAL, OPTIONS,
+                       show_progress=False)
+    counts = rm.edge_counts
+    assert counts["refused_arrival"] > 0 and counts["refused_effort"] == 0
+    for e in range(0, rm.num_edges, max(1, rm.num_edges // 15)):
+        sim = mp.simulate_edge(drive, rm.nodes[rm.src[e]], rm.nodes[rm.dst[e]],
+                               rm.durations[e], OPTIONS.dt)
+        assert np.abs(sim.q[-1] - rm.nodes[rm.dst[e]]).max() <= OPTIONS.arrival_tolerance
+    free = build_roadmap(EnergyCost(drive, OPTIONS.dt), checker, START, GOAL,
+                         RoadmapOptions(**{**OPTIONS.__dict__, "arrival_tolerance": math.pi}),
+                         show_progress=False)
+    kept = set(zip(rm.src.tolist(), rm.dst.tolist(), strict=True))
+    refused = [e for e, uv in enumerate(zip(free.src.tolist(), free.dst.tolist(), strict=True))
+               if uv not in kept]
+    assert len(refused) == counts["refused_arrival"]
+    for e in refused[:: max(1, len(refused) // 10)]:
+        sim = mp.simulate_edge(drive, free.nodes[free.src[e]], free.nodes[free.dst[e]],
+                               free.durations[e], OPTIONS.dt)
+        assert np.abs(sim.q[-1] - free.nodes[free.dst[e]]).max() > OPTIONS.arrival_tolerance
+
+
+def test_effort_limit_refuses_edges_whose_torque_exceeds_it(tmp_path):
+    """With the URDF effort limit lowered below what the motion needs, the edges whose
+    simulated peak n·Kt·|i| exceeds it are refused (counted), and no kept edge exceeds it."""
+    xml = mp.builtin_arm_urdf("planar_3link").replace('effort="100', 'effort="4')
+    arm = mp.Arm.from_urdf(xml)
+    assert np.all(arm.model.effortLimit == 4.0)
+    drive = mp.Drive(arm, mp.PAPER_MOTOR.with_gear_ratio(5.0), kp=40.0, kd=4.0)
+    rm = build_roadmap(EnergyCost(drive, OPTIONS.dt), CollisionChecker(arm, World(())),
+                       START, GOAL, OPTIONS, show_progress=False)
+    assert rm.edge_counts["refused_effort"] > 0
+    out = mp.dynamics.edge_outcomes(drive, rm.nodes[rm.src], rm.nodes[rm.dst], rm.durations,
+                                    OPTIONS.dt)
+    assert out.peak_torque.max() <= 4.0

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from ..dynamics.simulate import current_model
 from ..planning.roadmap import Roadmap
 from .plan import PlanResult, Setup
 from .results import to_jsonable, write_json
@@ -150,6 +151,7 @@ def _roadmap_record(scn: EnergyScenario, roadmap: Roadmap) -> dict[str, Any]:
     return {
         "num_nodes": roadmap.num_nodes,
         "num_edges": roadmap.num_edges,
+        "edge_counts": dict(roadmap.edge_counts),  # lengthened / refused directed candidates
         "options": asdict(scn.options),
         "key": roadmap.key,
     }
@@ -184,6 +186,7 @@ def result_record(
         "joint_names": scn.arm.joint_names,
         "motor": [asdict(m) for m in motor] if isinstance(motor, list) else asdict(motor),
         "controller": {"kp": scn.kp, "kd": scn.kd, "feedforward": scn.feedforward},
+        "current_model": current_model(setup.drive, scn.options.dt),
         "roadmap": _roadmap_record(scn, setup.roadmap),
         "planner": scn.planner,
         "start": scn.start,

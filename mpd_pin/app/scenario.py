@@ -277,6 +277,11 @@ def _options(t: Table) -> RoadmapOptions:
         kw[name] = t.number(name, getattr(d, name), positive=True, maximum=upper)
     kw["dt"] = t.number("dt", d.dt, positive=True)
     kw["duration_rule"] = t.string("duration_rule", d.duration_rule, choices=("fixed", "distance"))
+    kw["velocity_limits"] = t.boolean("velocity_limits", d.velocity_limits)
+    kw["effort_limits"] = t.boolean("effort_limits", d.effort_limits)
+    kw["arrival_tolerance"] = t.number(
+        "arrival_tolerance", d.arrival_tolerance, positive=True, maximum=math.pi
+    )
     t.done()
     longest = kw["duration"] if kw["duration_rule"] == "fixed" else kw["max_duration"]
     if longest / kw["dt"] > LIMITS["steps_per_edge"]:

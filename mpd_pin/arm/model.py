@@ -342,7 +342,8 @@ class Arm:
     def fingerprint(self) -> str:
         """SHA-256 of everything that determines dynamics and collision geometry.
 
-        Joint placements, types and limits, link inertias, gravity, and the
+        Joint placements, types and limits (position, velocity, effort), link inertias,
+        gravity, and the
         collision objects (names, parents, placements, geometry type and size, mesh
         scale, and the SHA-256 of each mesh file's bytes — not its path, so moving
         the files keeps the fingerprint), and the collision pairs.
@@ -355,7 +356,10 @@ class Arm:
             h.update(np.asarray(m.jointPlacements[j].homogeneous).tobytes())
             ine = m.inertias[j]
             h.update(np.array([ine.mass, *ine.lever, *ine.inertia.ravel()]).tobytes())
-        for arr in (m.lowerPositionLimit, m.upperPositionLimit, m.gravity.vector):
+        for arr in (
+            m.lowerPositionLimit, m.upperPositionLimit, m.velocityLimit, m.effortLimit,
+            m.gravity.vector,
+        ):
             h.update(np.asarray(arr, dtype=float).tobytes())
         for g in self.collision_model.geometryObjects:
             mesh = Path(g.meshPath) if g.meshPath else None

@@ -7,11 +7,12 @@ remote executor can replace the way edges are simulated without touching the sea
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import fields
 
 import numpy as np
 
 from .motor import Drive
-from .simulate import edge_energies
+from .simulate import EdgeOutcomes, edge_outcomes
 
 __all__ = ["EnergyCost"]
 
@@ -46,8 +47,19 @@ class EnergyCost:
         durations: np.ndarray,
         progress: Callable[[int], None] | None = None,
     ) -> np.ndarray:
+        """E⁺ per joint (J), (K, nq), of the K edges ``Q0[k] → Q1[k]``."""
+        return self.outcomes(Q0, Q1, durations, progress).energy
+
+    def outcomes(
+        self,
+        Q0: np.ndarray,
+        Q1: np.ndarray,
+        durations: np.ndarray,
+        progress: Callable[[int], None] | None = None,
+    ) -> EdgeOutcomes:
+        """Energies, end errors and peak torques of the K edges (:func:`edge_outcomes`)."""
         if self.executor is None or Q0.shape[0] <= self.chunk:
-            return edge_energies(
+            return edge_outcomes(
                 self.drive, Q0, Q1, durations, self.dt, chunk=self.chunk, progress=progress
             )
         parts = []
@@ -55,12 +67,7 @@ class EnergyCost:
             sl = slice(start, start + self.chunk)
             parts.append(
                 self.executor.submit(
-                    edge_energies,
-                    self.drive,
-                    Q0[sl],
-                    Q1[sl],
-                    durations[sl],
-                    self.dt,
+                    edge_outcomes, self.drive, Q0[sl], Q1[sl], durations[sl], self.dt,
                     chunk=self.chunk,
                 )
             )
@@ -68,7 +75,9 @@ class EnergyCost:
         for fut in parts:
             res = fut.result()
             out.append(res)
-            done += res.shape[0]
+            done += res.energy.shape[0]
             if progress is not None:
                 progress(done)
-        return np.concatenate(out, axis=0)
+        return EdgeOutcomes(*(
+            np.concatenate([getattr(r, f.name) for r in out], axis=0) for f in fields(EdgeOutcomes)
+        ))

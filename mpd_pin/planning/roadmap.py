@@ -36,8 +36,11 @@ from ..search import Graph
 
 __all__ = ["RoadmapOptions", "Roadmap", "build_roadmap", "ROADMAP_FORMAT"]
 
+#: Keys of :attr:`Roadmap.edge_counts`, in the order of the file's ``edge_counts`` array.
+EDGE_COUNTS = ("lengthened_for_velocity", "refused_effort", "refused_arrival")
+
 #: Version of the .npz layout and of the cost model; part of every file's key.
-ROADMAP_FORMAT = "mpd_pin.roadmap/1"
+ROADMAP_FORMAT = "mpd_pin.roadmap/2"  # 2: feasible edges only, edge_counts array
 
 
 @dataclass(frozen=True)
@@ -54,6 +57,15 @@ class RoadmapOptions:
     duration_quantum, min_duration, max_duration: distance rule rounding and bounds (s).
     dt: RK4 step (s).
     max_attempts: give up sampling after this many draws per requested node.
+    velocity_limits: time every edge so that its quintic reference stays within the URDF
+        velocity limits, T ≥ 1.875·|Δq_k|/v_lim,k, rounded up to ``duration_quantum``
+        (an edge only ever gets longer than its rule says; joints without a positive
+        finite limit are not constrained).
+    effort_limits: refuse an edge whose simulated motor torque n·Kt·|i| exceeds a URDF
+        effort limit (N·m) at any step.
+    arrival_tolerance: refuse an edge whose simulated motion ends farther than this (rad)
+        from its end node in any joint: the energy of a motion that does not arrive is
+        not that edge's energy (docs/design.md §3g, §4e).
     """
 
     num_nodes: int = 200
@@ -68,6 +80,9 @@ class RoadmapOptions:
     max_duration: float = 4.0
     dt: float = 5e-3
     max_attempts: int = 200
+    velocity_limits: bool = True
+    effort_limits: bool = True
+    arrival_tolerance: float = 0.01
 
     def __post_init__(self) -> None:
         if int(self.num_nodes) != self.num_nodes or self.num_nodes < 0:
@@ -86,6 +101,7 @@ class RoadmapOptions:
             "min_duration",
             "max_duration",
             "dt",
+            "arrival_tolerance",
         ):
             val = getattr(self, name)
             if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
@@ -97,16 +113,36 @@ class RoadmapOptions:
         step_count(self.min_duration, self.dt)
         step_count(self.max_duration, self.dt)
 
-    def durations(self, Q0: np.ndarray, Q1: np.ndarray) -> np.ndarray:
-        """Edge durations (s) by the chosen rule, one per row of Q0/Q1."""
+    def durations(
+        self, Q0: np.ndarray, Q1: np.ndarray, velocity_limit: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Edge durations (s) by the chosen rule, one per row of Q0/Q1, lengthened where
+        ``velocity_limits`` and the joint ``velocity_limit`` (rad/s) require it."""
+        return self.timing(Q0, Q1, velocity_limit)[0]
+
+    def timing(
+        self, Q0: np.ndarray, Q1: np.ndarray, velocity_limit: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(durations (s), lengthened)``: the rule's durations, raised to the quintic's
+        velocity bound 1.875·max_k |Δq_k|/v_lim,k rounded up to ``duration_quantum``;
+        ``lengthened`` marks the edges the bound raised."""
         K = Q0.shape[0]
         if self.duration_rule == "fixed":
-            return np.full(K, float(self.duration))
-        dist = np.max(np.abs(Q1 - Q0), axis=1) if K else np.zeros(0)
-        steps = np.ceil(dist / self.joint_speed / self.duration_quantum - 1e-12)
-        T = np.clip(steps * self.duration_quantum, self.min_duration, self.max_duration)
+            T = np.full(K, float(self.duration))
+        else:
+            dist = np.max(np.abs(Q1 - Q0), axis=1) if K else np.zeros(0)
+            steps = np.ceil(dist / self.joint_speed / self.duration_quantum - 1e-12)
+            T = np.clip(steps * self.duration_quantum, self.min_duration, self.max_duration)
+        raised = np.zeros(K, dtype=bool)
+        if self.velocity_limits and velocity_limit is not None and K:
+            vl = np.asarray(velocity_limit, dtype=float)
+            vl = np.where(np.isfinite(vl) & (vl > 0), vl, np.inf)
+            need = np.max(1.875 * np.abs(Q1 - Q0) / vl, axis=1)
+            need = np.ceil(need / self.duration_quantum - 1e-9) * self.duration_quantum
+            raised = need > T + 1e-12
+            T = np.maximum(T, need)
         # Snap to the dt grid exactly so T/dt is whole.
-        return np.round(T / self.dt) * self.dt
+        return np.round(T / self.dt) * self.dt, raised
 
 
 @dataclass
@@ -129,6 +165,9 @@ class Roadmap:
     energy: np.ndarray
     key: str
     timings: dict = field(default_factory=dict)
+    #: directed candidate edges lengthened for the velocity limits, refused for the
+    #: effort limits, refused for not arriving (see RoadmapOptions)
+    edge_counts: dict = field(default_factory=dict)
 
     @property
     def num_nodes(self) -> int:
@@ -195,6 +234,7 @@ class Roadmap:
             "dst": np.asarray(self.dst, np.int64),
             "durations": np.asarray(self.durations, float),
             "energy": np.asarray(self.energy, float),
+            "edge_counts": np.array([self.edge_counts.get(k, 0) for k in EDGE_COUNTS], np.int64),
         }
 
     @staticmethod
@@ -255,6 +295,7 @@ class Roadmap:
             "dst",
             "durations",
             "energy",
+            "edge_counts",
         }
         if not needed <= set(data):
             raise ValueError(
@@ -265,7 +306,10 @@ class Roadmap:
                 f"{str(path)!r} has format {str(data['format'])!r}, expected {ROADMAP_FORMAT!r}"
             )
         key = str(data["key"])
-        arrays = {n: data[n] for n in ("nodes", "endpoints", "src", "dst", "durations", "energy")}
+        arrays = {
+            n: data[n]
+            for n in ("nodes", "endpoints", "src", "dst", "durations", "energy", "edge_counts")
+        }
         if cls._checksum(key, arrays) != str(data["checksum"]):
             raise ValueError(
                 f"roadmap file {str(path)!r} was modified after it was written (checksum mismatch)"
@@ -285,6 +329,7 @@ class Roadmap:
             durations=arrays["durations"],
             energy=arrays["energy"],
             key=key,
+            edge_counts=dict(zip(EDGE_COUNTS, arrays["edge_counts"].tolist(), strict=True)),
         )
 
 
@@ -327,6 +372,9 @@ def _validate_arrays(arrays: dict[str, np.ndarray], path: Path, nq: int | None) 
         raise bad("durations must be finite and > 0 (s)")
     if energy.dtype.kind != "f" or not np.all(np.isfinite(energy) & (energy >= 0)):
         raise bad("energies must be finite and >= 0 (J)")
+    counts = arrays["edge_counts"]
+    if counts.dtype.kind not in "iu" or counts.shape != (len(EDGE_COUNTS),) or np.any(counts < 0):
+        raise bad(f"edge_counts must be {len(EDGE_COUNTS)} non-negative integers")
 
 
 # --------------------------------------------------------------------------- building
@@ -443,15 +491,34 @@ def _free_pairs(checker, nodes: np.ndarray, pairs: np.ndarray, resolution: float
 
 
 def _cost_edges(cost: EnergyCost, nodes, pairs, options: RoadmapOptions, tqdm, show_progress):
-    """Costing: both directions of every pair, their durations (s) and E⁺ per joint (J)."""
+    """Costing: both directions of every pair, timed within the velocity limits, simulated,
+    and kept only if feasible (docs/design.md §4e). Returns src, dst, durations (s),
+    E⁺ per joint (J) of the kept edges and the counts of :data:`EDGE_COUNTS`."""
+    model = cost.drive.arm.model
     src = np.concatenate([pairs[:, 0], pairs[:, 1]]).astype(np.int64)
     dst = np.concatenate([pairs[:, 1], pairs[:, 0]]).astype(np.int64)
-    durations = options.durations(nodes[src], nodes[dst])
+    durations, raised = options.timing(nodes[src], nodes[dst], model.velocityLimit)
     with tqdm(
         total=src.size, desc="edge energies", unit="edge", disable=not show_progress, leave=False
     ) as bar:
-        energy = cost(nodes[src], nodes[dst], durations, progress=lambda d: bar.update(d - bar.n))
-    return src, dst, durations, np.asarray(energy, float)
+        out = cost.outcomes(
+            nodes[src], nodes[dst], durations, progress=lambda d: bar.update(d - bar.n)
+        )
+    over = np.zeros(src.size, dtype=bool)
+    if options.effort_limits and src.size:
+        lim = np.asarray(model.effortLimit, dtype=float)
+        lim = np.where(np.isfinite(lim) & (lim > 0), lim, np.inf)
+        over = np.any(out.peak_torque > lim * (1.0 + 1e-12), axis=1)
+    missed = np.zeros(src.size, dtype=bool)
+    if src.size:
+        missed = np.max(np.abs(out.end_error), axis=1) > options.arrival_tolerance
+    keep = ~(over | missed)
+    counts = {
+        "lengthened_for_velocity": int(raised.sum()),
+        "refused_effort": int(over.sum()),
+        "refused_arrival": int((missed & ~over).sum()),
+    }
+    return src[keep], dst[keep], durations[keep], np.asarray(out.energy, float)[keep], counts
 
 
 def build_roadmap(
@@ -500,7 +567,9 @@ def build_roadmap(
     pairs = _free_pairs(checker, nodes, pairs, options.resolution)
     timings["edge_checks"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    src, dst, durations, energy = _cost_edges(cost, nodes, pairs, options, tqdm, show_progress)
+    src, dst, durations, energy, counts = _cost_edges(
+        cost, nodes, pairs, options, tqdm, show_progress
+    )
     timings["edge_energies"] = time.perf_counter() - t0
 
     roadmap = Roadmap(
@@ -513,6 +582,7 @@ def build_roadmap(
         energy=energy,
         key=key,
         timings=timings,
+        edge_counts=counts,
     )
     if cache is not None:
         roadmap.save(cache)

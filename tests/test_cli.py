@@ -337,7 +337,7 @@ def test_bad_urdf_path(tmp_path):
     "motor, line",
     [
         ('preset = "turbo"', "mpd-pin: error: motor.preset: 'turbo' is not one of "
-                             "['paper', 'servo']"),
+                             "['paper', 'servo', 'sized']"),
         ("R = 'one'", "mpd-pin: error: motor.R: expected a number, got 'one'"),
         ("R = 0.0", "mpd-pin: error: motor: DCMotor.R must be a finite number > 0, got 0.0"),
     ],

@@ -73,10 +73,18 @@ def test_builtin_energy_scenario_end_to_end(name, builtin_run):
     np.testing.assert_allclose(Q[-1], scn.goal, atol=1e-12)
     # Energies = sum over the path's edges, recomputed here with simulate_edge.
     opts = scn.options
-    durations = opts.durations(Q[:-1], Q[1:])
+    vlim = scn.arm.model.velocityLimit
+    durations = opts.durations(Q[:-1], Q[1:], vlim)
     E = np.zeros(drive.nq)
     for k in range(len(Q) - 1):
-        E += mp.simulate_edge(drive, Q[k], Q[k + 1], durations[k], opts.dt).energy
+        sim = mp.simulate_edge(drive, Q[k], Q[k + 1], durations[k], opts.dt)
+        E += sim.energy
+        # a feasible edge: it arrives, its reference respects the URDF velocity limits and
+        # its motor torque the effort limits (docs/design.md §4e)
+        assert np.abs(sim.q[-1] - Q[k + 1]).max() <= opts.arrival_tolerance
+        assert np.all(1.875 * np.abs(Q[k + 1] - Q[k]) / durations[k] <= vlim * (1 + 1e-9))
+        peak = np.abs(sim.i).max(axis=0) * drive.torque_per_amp
+        assert np.all(peak <= scn.arm.model.effortLimit)
     np.testing.assert_allclose(result["energy_per_joint"], E, rtol=1e-8)
     assert result["total_energy"] == pytest.approx(E.sum(), rel=1e-8)
     assert result["path"]["length_nodes"] == len(Q)

@@ -6,8 +6,11 @@ where every non-finite number is ``null``) holds:
 * ``scenario``, ``description``, ``arm``, ``joint_names``, ``planner``, ``start``, ``goal``
   (rad), ``world`` (as given, before any reveal);
 * ``motor`` — one ``DCMotor`` or one per joint (``v_max: null`` — no voltage limit);
-  ``controller`` — ``kp``, ``kd``, ``feedforward``;
-* ``roadmap`` — ``num_nodes``, ``num_edges``, ``options`` (``RoadmapOptions``), ``key``;
+  ``controller`` — ``kp``, ``kd``, ``feedforward``; ``current_model`` — which current
+  integration ran (``rk4``, ``exponential`` or both, per joint: docs/design.md §3e);
+* ``roadmap`` — ``num_nodes``, ``num_edges``, ``edge_counts`` (directed candidates
+  lengthened for the velocity limits, refused for effort, refused for not arriving:
+  docs/design.md §4e), ``options`` (``RoadmapOptions``), ``key``;
 * ``hazard_replanning`` (``HazardResult.to_dict``: ``penalty: null`` — ∞, edges removed;
   ``penalty_floor: null`` — unused; margins ``null`` — no hazard), ``execution``
   (``ExecutionResult.to_dict``, energies unpenalised), when they ran;

@@ -3,11 +3,13 @@
 Nodes are seeded uniform random collision-free configurations inside the joint
 limits, plus the start and the goal. Each node is joined to its k nearest
 neighbours in joint space (scipy ``cKDTree``); an undirected candidate edge is
-kept if every configuration along it, at a fixed joint-space resolution, is
-collision-free. Both directions of every kept edge are then costed by the
-motor-augmented ODE: cost(u→v) = Σ_joints E⁺ (paper 000, Fig. 1), through one
-batched interface, :class:`EnergyCost`, so that lazy evaluation or remote
-executors can replace it without touching the search.
+kept if the checker finds the whole straight joint-space edge collision-free (its
+edge mode: certified by default, or discrete at ``resolution``). Both directions of
+every kept edge are then simulated with the motor-augmented ODE through one batched
+interface, :class:`EnergyCost`, so that lazy evaluation or remote executors can
+replace it without touching the search: cost(u→v) = Σ_joints E⁺ (paper 000, Fig. 1),
+for the directed edges that are feasible — timed within the URDF velocity limits,
+within the effort limits, and arriving at their end node (docs/design.md §4e).
 
 Edge duration rule (documented choice):
 
@@ -15,7 +17,9 @@ Edge duration rule (documented choice):
 * ``duration_rule="distance"`` — ``T = clip(⌈max_k |Δq_k| / ω / quantum⌉·quantum,
   T_min, T_max)``: the largest joint move at mean speed ``ω`` rad/s, rounded up
   to a multiple of ``quantum`` seconds (itself a multiple of dt), so edges fall
-  into few batches.
+  into few batches;
+
+either raised to the velocity-limit bound when ``velocity_limits`` is set.
 """
 
 from __future__ import annotations
@@ -150,7 +154,8 @@ class Roadmap:
     """A costed roadmap.
 
     nodes: (n, nq) configurations (rad); ``start`` and ``goal`` are node ids.
-    src, dst: directed edges (both directions of every collision-free pair).
+    src, dst: directed edges (both directions of every collision-free pair, less the
+        infeasible ones counted in ``edge_counts``).
     durations: (E,) seconds; energy: (E, nq) E⁺ per joint (J); cost = energy.sum(1).
     key: hash of everything that determined the roadmap (see :meth:`key_for`).
     timings: seconds per phase of the build.

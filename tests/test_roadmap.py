@@ -502,3 +502,20 @@ def test_effort_limit_refuses_edges_whose_torque_exceeds_it(tmp_path):
     out = mp.dynamics.edge_outcomes(drive, rm.nodes[rm.src], rm.nodes[rm.dst], rm.durations,
                                     OPTIONS.dt)
     assert out.peak_torque.max() <= 4.0
+
+
+def test_scenario_roadmap_feasibility_keys():
+    from mpd_pin.app.config import ConfigError
+    from mpd_pin.app.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
+
+    data = load_scenario_data(builtin_scenarios()["case1"])
+    scn = parse_energy_scenario(data)
+    assert scn.options.velocity_limits and scn.options.effort_limits
+    assert scn.options.arrival_tolerance == 0.01
+    data["roadmap"].update(velocity_limits=False, effort_limits=False, arrival_tolerance=0.05)
+    opts = parse_energy_scenario(data).options
+    assert (opts.velocity_limits, opts.effort_limits, opts.arrival_tolerance) == (
+        False, False, 0.05)
+    data["roadmap"]["arrival_tolerance"] = -1.0
+    with pytest.raises(ConfigError, match=r"roadmap\.arrival_tolerance"):
+        parse_energy_scenario(data)

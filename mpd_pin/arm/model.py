@@ -188,6 +188,7 @@ class Arm:
             raise ValueError(
                 "the arm model must have zero armature; rotor inertia goes in DCMotor.J"
             )
+        _drop_adjacent_pairs(m, self.collision_model)
         self.data = m.createData()
         if self.q_reference is None:
             self.q_reference = pin.neutral(m)
@@ -421,3 +422,23 @@ class Arm:
         fid = self.model.getFrameId(frame)
         pin.framesForwardKinematics(self.model, self.data, q)
         return self.data.oMf[fid].translation.copy()
+
+
+def _drop_adjacent_pairs(model: pin.Model, collision: pin.GeometryModel) -> int:
+    """Remove collision pairs of geometries on the same joint or on parent/child joints.
+
+    Such geometries touch at their joint by construction (MoveIt's "Adjacent" rule; the
+    collision checker applies the same rule when an arm has no pairs). An SRDF normally
+    disables them, but not every shipped one does: example-robot-data's Kinova SRDF has no
+    ``disable_collisions`` at all, and none of 2,000 random configurations was free with
+    its adjacent links paired. Returns the number of pairs removed (Panda: 0, UR5: 1).
+    """
+    drop = []
+    for pair in collision.collisionPairs:
+        a = collision.geometryObjects[pair.first].parentJoint
+        b = collision.geometryObjects[pair.second].parentJoint
+        if a == b or model.parents[a] == b or model.parents[b] == a:
+            drop.append(pin.CollisionPair(pair.first, pair.second))
+    for pair in drop:
+        collision.removeCollisionPair(pair)
+    return len(drop)

@@ -52,14 +52,15 @@ __all__ = [
 
 
 # ----------------------------------------------------------------------------- reference
-def quintic(tau: np.ndarray | float, duration: float) -> tuple[np.ndarray, ...]:
+def quintic(tau: np.ndarray | float, duration: float | np.ndarray) -> tuple[np.ndarray, ...]:
     """Quintic time scaling and its time derivatives at normalised time ``tau`` ∈ [0, 1].
 
+    ``duration`` (s) is a scalar or one value per column of a 2-D ``tau`` (one per edge).
     Returns ``(s, ṡ, s̈, s⃛)`` with ``s = 10τ³ − 15τ⁴ + 6τ⁵`` and derivatives
     with respect to time t = τ·T (1/s, 1/s², 1/s³).
     """
     tau = np.asarray(tau, dtype=float)
-    T = float(duration)
+    T = np.asarray(duration, dtype=float) if np.ndim(duration) else float(duration)
     s = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
     sd = 30.0 * tau**2 * (1.0 - tau) ** 2 / T
     sdd = 60.0 * tau * (1.0 - 3.0 * tau + 2.0 * tau**2) / T**2
@@ -84,6 +85,10 @@ def step_count(duration: float, dt: float) -> int:
         )
     return int(n)
 
+
+#: Largest reference table (time samples × edges × joints) one batch holds: 2²¹ floats
+#: (16 MB) per array; the feed-forward needs about eight such arrays at once.
+_BATCH_BUDGET = 1 << 21
 
 #: A joint whose electrical pole satisfies dt·R/L above this gets the exponential current
 #: update of :class:`CurrentStep`; at or below it, classical RK4 (docs/design.md §3e). 2.5 is
@@ -216,18 +221,24 @@ def _feedforward_single(drive: Drive, q0: np.ndarray, dq: np.ndarray, tau: np.nd
     return Vff, iff
 
 
-def _feedforward_batch(drive: Drive, Q0: np.ndarray, DQ: np.ndarray, tau: np.ndarray, T: float):
-    """V_ff and i_ff, shape (nt, K, nq), for K edges at the normalised times ``tau``."""
+def _per_edge(a: np.ndarray) -> np.ndarray:
+    """(nt,) → (nt, 1, 1) or (nt, K) → (nt, K, 1), to broadcast against (nt, K, nq)."""
+    return a[:, None, None] if a.ndim == 1 else a[..., None]
+
+
+def _feedforward_batch(drive: Drive, Q0: np.ndarray, DQ: np.ndarray, tau: np.ndarray, T):
+    """V_ff and i_ff, shape (nt, K, nq), for K edges at the normalised times ``tau``
+    ((nt,) shared, or (nt, K) with ``T`` (s) one per edge)."""
     from .batch import rnea_with_derivative
 
-    s, sd, sdd, sddd = quintic(tau, T)
-    nt = tau.size
+    s, sd, sdd, sddd = (_per_edge(a) for a in quintic(tau, T))
+    nt = tau.shape[0]
     K, nq = Q0.shape
     # (nt, K, nq) laid out so that the (nq, nt*K) transpose is Fortran-contiguous.
-    Qr = Q0[None] + DQ[None] * s[:, None, None]
-    Vr = DQ[None] * sd[:, None, None]
-    Ar = DQ[None] * sdd[:, None, None]
-    Jr = DQ[None] * sddd[:, None, None]
+    Qr = Q0[None] + DQ[None] * s
+    Vr = DQ[None] * sd
+    Ar = DQ[None] * sdd
+    Jr = DQ[None] * sddd
     flat = (nt * K, nq)
     tau_r, dtau_r = rnea_with_derivative(
         drive.model, Qr.reshape(flat).T, Vr.reshape(flat).T, Ar.reshape(flat).T, Jr.reshape(flat).T
@@ -412,35 +423,44 @@ def _pool(drive: Drive, threads: int) -> pin.ModelPool:
 
 
 @np.errstate(over="ignore", invalid="ignore")  # divergence is detected and reported below
-def _integrate_batch(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: float, N: int, threads: int):
-    """RK4 on K edges sharing duration T and N steps; returns (E⁺, E), each (K, nq).
+def _integrate_batch(
+    drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, N: np.ndarray, h: float,
+    threads: int,
+):
+    """RK4 on K edges with step ``h`` (s), edge k lasting T[k] = N[k]·h; returns the
+    :class:`EdgeOutcomes` arrays (E⁺, E, end error, end velocity, peak torque), each (K, nq).
 
     The state of all edges is one preallocated array X = [q, q̇, i, E⁺, E] of shape
     (5, K, nq) (each row block C-contiguous, so its transpose is the (nq, K)
     Fortran array Pinocchio wants); the stage derivatives are written in place
     and the accelerations straight into them by ``abaInParallel``. The reference
     part of the voltage, W = V_ff + Kp q_ref + Kd q̇_ref, is tabulated on the
-    half-step grid once, so a stage computes V = sat(W − Kp q − Kd q̇).
+    half-step grid once, so a stage computes V = sat(W − Kp q − Kd q̇). Edges of
+    different lengths run together: the batch runs max N steps, an edge's reference
+    holds its end node after its own N[k] steps, and its results are taken at step
+    N[k] — each row is computed exactly as if alone (rows never mix).
     """
     K, nq = Q0.shape
-    h = T / N
+    T = np.asarray(T, dtype=float)
+    N = np.asarray(N, dtype=np.int64)
+    n_max = int(N.max())
     DQ = Q1 - Q0
-    half = np.arange(2 * N + 1) / (2 * N)
-    s, sd, _, _ = quintic(half, T)
+    half = np.minimum(np.arange(2 * n_max + 1)[:, None] / (2 * N)[None, :], 1.0)  # (nt, K)
+    s, sd, _, _ = (_per_edge(a) for a in quintic(half, T))
     kp, kd, vmax = drive.kp_vec, drive.kd_vec, drive.v_max
     pool = _pool(drive, threads)
     if drive.feedforward:
-        W, i_ff = _feedforward_batch(drive, Q0, DQ, half, T)  # W holds V_ff: (2N+1, K, nq)
+        W, i_ff = _feedforward_batch(drive, Q0, DQ, half, T)  # W holds V_ff: (nt, K, nq)
         i0 = i_ff[0].copy()  # τ_ff(0) = G(q0): the holding current
         del i_ff
     else:
-        W = np.zeros((half.size, K, nq))
+        W = np.zeros((half.shape[0], K, nq))
         G = pin.rneaInParallel(
             threads, pool, Q0.T, np.zeros((nq, K), order="F"), np.zeros((nq, K), order="F")
         )
         i0 = np.ascontiguousarray(np.asarray(G).T) / drive.torque_per_amp
-    W += kp * (Q0[None] + DQ[None] * s[:, None, None])
-    W += kd * (DQ[None] * sd[:, None, None])
+    W += kp * (Q0[None] + DQ[None] * s)
+    W += kd * (DQ[None] * sd)
     invL = 1.0 / drive.L
     r_l, ke_l, ktn, damp = drive.R * invL, drive.emf_per_rad_s * invL, drive.torque_per_amp, (
         drive.damping
@@ -494,7 +514,9 @@ def _integrate_batch(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: float, N: 
         return (Vs - ke_s * v) * cs.inv_L
 
     peak_i = np.abs(X[2])
-    for n in range(N):
+    result = [np.empty((K, nq)) for _ in range(5)]
+    ending = {int(n): np.flatnonzero(N == n) for n in np.unique(N)}
+    for n in range(n_max):
         j = 2 * n
         if cs.any:
             i0, n0 = X[2][:, sj], forcing(j, X)
@@ -524,9 +546,14 @@ def _integrate_batch(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: float, N: 
             X[2][:, sj] = cs.full(i0, n0, forcing(j + 2, X))
         np.abs(X[2], out=tmp)
         np.maximum(peak_i, tmp, out=peak_i)
-    if not (np.all(np.isfinite(X[3])) and np.all(np.isfinite(X[0]))):
+        idx = ending.get(n + 1)
+        if idx is not None:
+            for arr, now in zip(result, (X[3], X[4], X[0] - Q1, X[1], peak_i), strict=True):
+                arr[idx] = now[idx]
+    result[4] *= drive.torque_per_amp
+    if not (np.all(np.isfinite(result[0])) and np.all(np.isfinite(result[2]))):
         raise ValueError("integration diverged on some edges; reduce dt or the gains")
-    return X[3].copy(), X[4].copy(), X[0] - Q1, X[1].copy(), peak_i * drive.torque_per_amp
+    return tuple(result)
 
 
 @dataclass(frozen=True)
@@ -572,20 +599,34 @@ def edge_outcomes(
             f"duration must be a scalar or one value per edge ({K}), got shape {durations.shape}"
         )
     out = [np.zeros((K, drive.nq)) for _ in range(5)]
-    groups: dict[tuple[float, int], list[int]] = {}
-    for k, T in enumerate(durations.tolist()):
-        N = step_count(T, dt)
-        groups.setdefault((T, N), []).append(k)
+    steps = np.array([step_count(T, dt) for T in durations.tolist()], dtype=np.int64)
+    # Edges with the same step h = T/N (bit for bit) run together, shortest first, in
+    # chunks of at most ``chunk`` edges whose tables (nt × K × nq) stay within the budget.
+    groups: dict[float, list[int]] = {}
+    for k in range(K):
+        groups.setdefault(float(durations[k]) / int(steps[k]), []).append(k)
     done = 0
-    for (T, N), idx in groups.items():
-        idx = np.asarray(idx)
-        for start in range(0, idx.size, chunk):
-            sel = idx[start : start + chunk]
-            for arr, part in zip(
-                out, _integrate_batch(drive, Q0[sel], Q1[sel], T, N, threads), strict=True
+    for h, members in groups.items():
+        idx = np.asarray(members)
+        idx = idx[np.argsort(steps[idx], kind="stable")]
+        start = 0
+        while start < idx.size:
+            stop = start + 1  # grow the chunk while its table fits (idx is sorted by N)
+            while (
+                stop < idx.size
+                and stop - start < chunk
+                and (2 * int(steps[idx[stop]]) + 1) * drive.nq * (stop + 1 - start)
+                <= _BATCH_BUDGET
             ):
+                stop += 1
+            sel = idx[start:stop]
+            parts = _integrate_batch(
+                drive, Q0[sel], Q1[sel], durations[sel], steps[sel], h, threads
+            )
+            for arr, part in zip(out, parts, strict=True):
                 arr[sel] = part
             done += sel.size
+            start = stop
             if progress is not None:
                 progress(done)
     return EdgeOutcomes(*out)

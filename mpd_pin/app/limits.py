@@ -89,7 +89,7 @@ BOUNDS: dict[str, Bound] = {
     "kp": _b(0.0, 1e6, "V/rad", "the gain range"),
     "kd": _b(0.0, 1e6, "V·s/rad", "the gain range"),
     # roadmap (§4e)
-    "dt": _b(1e-6, 1.0, "s", "the step size range"),
+    "dt": _b(1e-9, 1.0, "s", "the step size range"),  # and ≤ 100000 steps per edge
     "duration": _b(1e-3, 60.0, "s", "the edge duration range"),
     "joint_speed": _b(1e-3, 1e3, "rad/s", "the joint speed range"),
     "resolution": _b(1e-3, 2 * math.pi, "rad", "the resolution range"),

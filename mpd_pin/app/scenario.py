@@ -394,8 +394,8 @@ def _endpoint(t: Table, key: str, arm: Arm, world: World, ik_seed: int) -> np.nd
         raise ConfigError(f"{t.path}: give {key} or {key}_ee, not both")
     if t.has(key):
         names = arm.joint_names
-        bounds = [Bound(float(lo), float(hi), "", f"the limits of joint {n!r}")
-                  for n, lo, hi in zip(names, arm.lower_limits, arm.upper_limits)]
+        bounds = [Bound(float(lo) - 1e-9, float(hi) + 1e-9, "", f"the limits of joint {n!r}")
+                  for n, lo, hi in zip(names, arm.lower_limits, arm.upper_limits, strict=True)]
         return np.array(t.vector(key, length=arm.nq, bound=bounds))
     raw = t.raw(f"{key}_ee")
     if not isinstance(raw, list) or len(raw) not in (2, 3):

@@ -112,9 +112,9 @@ class DynamicScenario:
     data: dict[str, Any] = field(default_factory=dict)
 
 
-def _pair(t: Table, key: str, default: Any = ..., bound: Bound | None = None
-          ) -> tuple[float, float]:
-    v = t.vector(key, default, length=2, bound=bound, labels=("x", "z"))
+def _pair(t: Table, key: str, default: Any = ..., bound: Bound | None = None,
+          labels: tuple[str, str] = ("x", "z")) -> tuple[float, float]:
+    v = t.vector(key, default, length=2, bound=bound, labels=labels)
     return (float(v[0]), float(v[1]))
 
 
@@ -225,8 +225,8 @@ def parse_dynamic_scenario(
 
     pos, size, gap = position_bound(arm), size_bound(arm), size_bound(arm, zero=True)
     g = top.table("grid")
-    gx = _pair(g, "x", [-1.0, 1.0], bound=pos)
-    gz = _pair(g, "z", [-1.0, 1.0], bound=pos)
+    gx = _pair(g, "x", [-1.0, 1.0], bound=pos, labels=("min", "max"))
+    gz = _pair(g, "z", [-1.0, 1.0], bound=pos, labels=("min", "max"))
     step = g.number("step", 0.05, positive=True, bound=size)
     g.done()
     try:

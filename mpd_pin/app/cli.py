@@ -9,6 +9,12 @@ Scenario kinds are dispatched by :mod:`mpd_pin.app.kinds`; this module knows non
 Bad input (unknown scenario, malformed TOML or URDF, unknown keys, start or goal
 in collision, no path) prints one line on stderr and exits with status 2 (or 3
 when no path exists); nothing is left half-written in DIR but what was done.
+Scenario numbers are range-checked when read (:mod:`mpd_pin.app.limits`), and the
+command runs with numpy's floating-point overflow, invalid-value and divide-by-zero
+warnings raised as errors (``np.errstate``; underflow is harmless and ignored; routines
+that detect divergence through inf/NaN, such as ``simulate_edge``, set their own local
+``errstate``), so a numerical problem that slips through ends as the internal-error line
+below instead of warnings and a misleading message.
 Any other exception (a bug, memory exhausted) prints one line
 ``mpd-pin: internal error: <type>: <message>`` and exits with status 1; Ctrl-C
 prints ``mpd-pin: interrupted`` and exits with 130.
@@ -97,8 +103,11 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mpd-pin`` console script; returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    import numpy as np
+
     try:
-        return int(args.func(args))
+        with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
+            return int(args.func(args))
     except NoPathError as exc:
         print(f"mpd-pin: no path: {exc}", file=sys.stderr)
         return 3

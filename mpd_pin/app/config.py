@@ -7,10 +7,13 @@ Every check names the offending key by its dotted path, e.g.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
-from typing import Any
+from collections.abc import Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["ConfigError", "Table"]
+if TYPE_CHECKING:
+    from .limits import Bound
+
+__all__ = ["ConfigError", "Table", "check_array"]
 
 
 class ConfigError(ValueError):
@@ -92,7 +95,9 @@ class Table:
         nonnegative: bool = False,
         minimum: float | None = None,
         maximum: float | None = None,
+        bound: Bound | None = None,
     ) -> float:
+        """A number; ``bound`` (:class:`~mpd_pin.app.limits.Bound`) its physical range."""
         if key not in self.data and default is not ...:
             self.seen.add(key)
             return default  # defaults are trusted (may be None or inf)
@@ -100,6 +105,8 @@ class Table:
         if isinstance(val, bool) or not isinstance(val, (int, float)):
             raise ConfigError(f"{self._name(key)}: expected a number, got {val!r}")
         val = float(val)
+        if bound is not None and not math.isfinite(val):
+            return bound.check(self._name(key), val)  # raises, unless inf has a meaning
         if not math.isfinite(val):
             raise ConfigError(f"{self._name(key)}: must be finite, got {val}")
         if positive and val <= 0:
@@ -110,19 +117,29 @@ class Table:
             raise ConfigError(f"{self._name(key)}: must be ≥ {minimum:g}, got {val:g}")
         if maximum is not None and val > maximum:
             raise ConfigError(f"{self._name(key)}: must be ≤ {maximum:g}, got {val:g}")
-        return val
+        return val if bound is None else bound.check(self._name(key), val)
 
     def numbers(
-        self, key: str, default: Any = ..., length: int | None = None
+        self,
+        key: str,
+        default: Any = ...,
+        length: int | None = None,
+        *,
+        bound: Bound | Sequence[Bound] | None = None,
+        labels: Sequence[str] | None = None,
     ) -> list[float] | float:
-        """A number or an array of numbers (optionally of a given length)."""
+        """A number or an array of numbers (optionally of a given length).
+
+        Every value is finite and, with ``bound`` (one, or one per element), in its range;
+        elements are named ``key[i]`` or, with ``labels``, ``key x`` / ``key z``.
+        """
         val = self.raw(key, default)
         if val is None and default is None:
             return None  # type: ignore[return-value]
+        if key not in self.data:
+            return val  # defaults are trusted
         if isinstance(val, (int, float)) and not isinstance(val, bool):
-            if not math.isfinite(val):
-                raise ConfigError(f"{self._name(key)}: must be finite, got {val}")
-            return float(val)
+            return self._checked(self._name(key), float(val), bound)
         if not isinstance(val, list) or not all(
             isinstance(x, (int, float)) and not isinstance(x, bool) for x in val
         ):
@@ -131,12 +148,27 @@ class Table:
             )
         if length is not None and len(val) != length:
             raise ConfigError(f"{self._name(key)}: expected {length} numbers, got {len(val)}")
-        if not all(math.isfinite(x) for x in val):
-            raise ConfigError(f"{self._name(key)}: values must be finite, got {val}")
-        return [float(x) for x in val]
+        return check_array(self._name(key), val, bound, labels)
 
-    def vector(self, key: str, default: Any = ..., length: int | None = None) -> list[float]:
-        val = self.numbers(key, default, length)
+    @staticmethod
+    def _checked(name: str, val: float, bound: Bound | None) -> float:
+        if bound is not None:
+            return bound.check(name, val)
+        if not math.isfinite(val):
+            raise ConfigError(f"{name} = {val} is not a finite number")
+        return val
+
+    def vector(
+        self,
+        key: str,
+        default: Any = ...,
+        length: int | None = None,
+        *,
+        bound: Bound | Sequence[Bound] | None = None,
+        labels: Sequence[str] | None = None,
+    ) -> list[float]:
+        """An array of numbers (see :meth:`numbers`)."""
+        val = self.numbers(key, default, length, bound=bound, labels=labels)
         if val is None:
             return None  # type: ignore[return-value]
         if isinstance(val, float):
@@ -152,3 +184,21 @@ class Table:
                 f"{self.path or 'top level'}: unknown key(s) {', '.join(map(repr, unknown))} "
                 f"(known here: {known})"
             )
+
+
+def check_array(
+    name: str,
+    values: Sequence[Any],
+    bound: Bound | Sequence[Bound] | None = None,
+    labels: Sequence[str] | None = None,
+) -> list[float]:
+    """``values`` as floats, each a finite number within its ``bound`` (one for all, or one
+    per element), else ConfigError naming the element (``name[i]`` or ``name label``)."""
+    out = []
+    for i, x in enumerate(values):
+        if isinstance(x, bool) or not isinstance(x, (int, float)):
+            raise ConfigError(f"{name}: expected numbers, got {x!r}")
+        label = f"{name} {labels[i]}" if labels is not None and i < len(labels) else f"{name}[{i}]"
+        b = bound[i] if isinstance(bound, Sequence) else bound
+        out.append(Table._checked(label, float(x), b))
+    return out

@@ -72,8 +72,9 @@ from ..planning.roadmap import RoadmapOptions
 from ..search.registry import DEFAULT_PLANNER, PLANNERS
 from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
 from .arm_source import arm_from_table
-from .config import ConfigError, Table
+from .config import ConfigError, Table, check_array
 from .kinds import KINDS, scenario_kind
+from .limits import BOUNDS, Bound, position_bound, size_bound
 
 __all__ = [
     "EnergyScenario",
@@ -159,7 +160,7 @@ MOTOR_CONSTANTS = ("R", "L", "Kt", "Ke", "B", "J", "gear_ratio", "v_max")
 def _sized(t: Table, arm: Arm) -> list[DCMotor]:
     """``preset = "sized"``: motors sized from the arm's URDF limits at the supply voltage
     ``v_max`` (default 24 V; docs/design.md §3g)."""
-    supply = t.number("v_max", 24.0, positive=True) if t.has("v_max") else 24.0
+    supply = t.number("v_max", 24.0, bound=BOUNDS["v_max"]) if t.has("v_max") else 24.0
     try:
         return sized_motors(arm, supply_voltage=supply)
     except ValueError as exc:
@@ -193,10 +194,14 @@ def _motor_one(
     if fields.get("v_max", 1.0) <= 0:
         raise ConfigError(f"{t.path}.v_max: must be > 0, got {fields['v_max']}")
     try:
-        return replace(base, **fields)
+        motor = replace(base, **fields)
     except ValueError as exc:  # DCMotor's own checks (R > 0, B ≥ 0, ...)
         joint = "" if index is None else f" (joint {index})"
         raise ConfigError(f"{t.path}{joint}: {exc}") from None
+    for name, val in fields.items():  # then the physical ranges (app/limits.py)
+        per_joint = index is not None and isinstance(t.data[name], list)
+        BOUNDS[name].check(f"{t.path}.{name}" + (f"[{index}]" if per_joint else ""), val)
+    return motor
 
 
 def _motors(top: Table, arm: Arm) -> DCMotor | list[DCMotor]:
@@ -239,7 +244,9 @@ def _motors(top: Table, arm: Arm) -> DCMotor | list[DCMotor]:
 
 
 def _gain(t: Table, key: str, default: float, nq: int) -> float | list[float]:
-    val = t.numbers(key, default)
+    if t.has(key) and isinstance(t.data[key], (int, float)) and t.data[key] < 0:
+        raise ConfigError(f"{t.path}.{key}: gains must be ≥ 0, got {t.data[key]}")
+    val = t.numbers(key, default, bound=BOUNDS[key])
     if isinstance(val, list) and len(val) != nq:
         raise ConfigError(f"{t.path}.{key}: expected one value or {nq} values, got {len(val)}")
     vals = [val] if isinstance(val, float) else val
@@ -270,17 +277,19 @@ def _options(t: Table) -> RoadmapOptions:
             name, getattr(d, name), minimum=0 if name != "k" else 1, maximum=LIMITS[name]
         )
     kw["resolution"] = t.number(
-        "resolution", d.resolution, positive=True, minimum=LIMITS["min_resolution"]
+        "resolution", d.resolution, positive=True, minimum=LIMITS["min_resolution"],
+        bound=BOUNDS["resolution"],
     )
     for name in ("duration", "joint_speed", "duration_quantum", "min_duration", "max_duration"):
         upper = LIMITS["duration"] if name != "joint_speed" else None
-        kw[name] = t.number(name, getattr(d, name), positive=True, maximum=upper)
-    kw["dt"] = t.number("dt", d.dt, positive=True)
+        kw[name] = t.number(name, getattr(d, name), positive=True, maximum=upper,
+                            bound=BOUNDS["joint_speed" if name == "joint_speed" else "duration"])
+    kw["dt"] = t.number("dt", d.dt, positive=True, bound=BOUNDS["dt"])
     kw["duration_rule"] = t.string("duration_rule", d.duration_rule, choices=("fixed", "distance"))
     kw["velocity_limits"] = t.boolean("velocity_limits", d.velocity_limits)
     kw["effort_limits"] = t.boolean("effort_limits", d.effort_limits)
     kw["arrival_tolerance"] = t.number(
-        "arrival_tolerance", d.arrival_tolerance, positive=True, maximum=math.pi
+        "arrival_tolerance", d.arrival_tolerance, bound=BOUNDS["arrival_tolerance"]
     )
     t.done()
     longest = kw["duration"] if kw["duration_rule"] == "fixed" else kw["max_duration"]
@@ -296,66 +305,80 @@ def _options(t: Table) -> RoadmapOptions:
         raise ConfigError(f"{t.path}: {exc}") from None
 
 
-def _shape(t: Table):
-    """One obstacle/hazard shape from planar or 3-D keys."""
+@dataclass(frozen=True)
+class _Lims:
+    """Position, size and angle ranges of one arm's scenario (app/limits.py)."""
+
+    pos: Bound
+    size: Bound
+    gap: Bound  # clearances, ranges: 0 allowed
+
+    @classmethod
+    def of(cls, arm: Arm) -> _Lims:
+        return cls(position_bound(arm), size_bound(arm), size_bound(arm, zero=True))
+
+
+XZ, XYZ, RPY = ("x", "z"), ("x", "y", "z"), ("roll", "pitch", "yaw")
+
+
+def _planar_center(t: Table, lim: _Lims) -> list[float]:
+    return t.vector("center", length=2, bound=lim.pos, labels=XZ)
+
+
+def _pose(t: Table, lim: _Lims) -> dict[str, list[float]]:
+    return {
+        "position": t.vector("position", [0.0, 0.0, 0.0], length=3, bound=lim.pos, labels=XYZ),
+        "rpy": t.vector("rpy", [0.0, 0.0, 0.0], length=3, bound=BOUNDS["angle"], labels=RPY),
+    }
+
+
+def _size(t: Table, key: str, lim: _Lims, default: Any = ...) -> float:
+    return t.number(key, default, positive=True, bound=lim.size)
+
+
+def _vertices(t: Table, lim: _Lims) -> list[list[float]]:
+    verts = t.raw("vertices")
+    if not isinstance(verts, list) or not all(isinstance(v, list) and len(v) == 2 for v in verts):
+        raise ConfigError(f"{t.path}.vertices: expected an array of [x, z] pairs")
+    return [check_array(f"{t.path}.vertices[{i}]", v, lim.pos, XZ) for i, v in enumerate(verts)]
+
+
+def _shape(t: Table, lim: _Lims):
+    """One obstacle/hazard shape from planar or 3-D keys, every number within ``lim``."""
     kind = t.string("type", choices=("box", "cylinder", "sphere", "polygon"))
-    name = t.string("name", "")
-    hidden = t.boolean("hidden", False)
+    common = {"name": t.string("name", ""), "hidden": t.boolean("hidden", False)}
     try:
         if kind == "box":
             if t.has("center"):
                 shape = Box.planar(
-                    t.vector("center", length=2),
-                    t.number("width", positive=True),
-                    t.number("height", positive=True),
-                    angle=t.number("angle", 0.0),
-                    depth=t.number("depth", 1.0, positive=True),
-                    name=name,
-                    hidden=hidden,
+                    _planar_center(t, lim), _size(t, "width", lim), _size(t, "height", lim),
+                    angle=t.number("angle", 0.0, bound=BOUNDS["angle"]),
+                    depth=_size(t, "depth", lim, 1.0), **common,
                 )
             else:
-                shape = Box(
-                    size=t.vector("size", length=3),
-                    position=t.vector("position", [0.0, 0.0, 0.0], length=3),
-                    rpy=t.vector("rpy", [0.0, 0.0, 0.0], length=3),
-                    name=name,
-                    hidden=hidden,
-                )
+                size = t.vector("size", length=3, bound=lim.size, labels=XYZ)
+                shape = Box(size=size, **_pose(t, lim), **common)
         elif kind == "cylinder":
             if t.has("center"):
                 shape = Cylinder.planar(
-                    t.vector("center", length=2),
-                    t.number("radius", positive=True),
-                    depth=t.number("depth", 1.0, positive=True),
-                    name=name,
-                    hidden=hidden,
+                    _planar_center(t, lim), _size(t, "radius", lim),
+                    depth=_size(t, "depth", lim, 1.0), **common,
                 )
             else:
                 shape = Cylinder(
-                    radius=t.number("radius", positive=True),
-                    length=t.number("length", positive=True),
-                    position=t.vector("position", [0.0, 0.0, 0.0], length=3),
-                    rpy=t.vector("rpy", [0.0, 0.0, 0.0], length=3),
-                    name=name,
-                    hidden=hidden,
+                    radius=_size(t, "radius", lim), length=_size(t, "length", lim),
+                    **_pose(t, lim), **common,
                 )
         elif kind == "sphere":
-            pos = (
-                [t.vector("center", length=2)[0], 0.0, t.vector("center", length=2)[1]]
-                if t.has("center")
-                else t.vector("position", length=3)
-            )
-            shape = Sphere(
-                radius=t.number("radius", positive=True), position=pos, name=name, hidden=hidden
-            )
+            if t.has("center"):
+                cx, cz = _planar_center(t, lim)
+                pos = [cx, 0.0, cz]
+            else:
+                pos = t.vector("position", length=3, bound=lim.pos, labels=XYZ)
+            shape = Sphere(radius=_size(t, "radius", lim), position=pos, **common)
         else:
-            verts = t.raw("vertices")
-            if not isinstance(verts, list) or not all(
-                isinstance(v, list) and len(v) == 2 for v in verts
-            ):
-                raise ConfigError(f"{t.path}.vertices: expected an array of [x, z] pairs")
             shape = Polygon.planar(
-                verts, depth=t.number("depth", 1.0, positive=True), name=name, hidden=hidden
+                _vertices(t, lim), depth=_size(t, "depth", lim, 1.0), **common
             )
     except ConfigError:
         raise
@@ -370,13 +393,17 @@ def _endpoint(t: Table, key: str, arm: Arm, world: World, ik_seed: int) -> np.nd
     if t.has(key) and t.has(f"{key}_ee"):
         raise ConfigError(f"{t.path}: give {key} or {key}_ee, not both")
     if t.has(key):
-        q = np.array(t.vector(key, length=arm.nq))
-        return q
-    target = t.vector(f"{key}_ee")
+        names = arm.joint_names
+        bounds = [Bound(float(lo) - 1e-9, float(hi) + 1e-9, "", f"the limits of joint {n!r}")
+                  for n, lo, hi in zip(names, arm.lower_limits, arm.upper_limits, strict=True)]
+        return np.array(t.vector(key, length=arm.nq, bound=bounds))
+    raw = t.raw(f"{key}_ee")
+    if not isinstance(raw, list) or len(raw) not in (2, 3):
+        raise ConfigError(f"{t.path}.{key}_ee: expected [x, z] or [x, y, z]")
+    lim = _Lims.of(arm)
+    target = t.vector(f"{key}_ee", bound=lim.pos, labels=XZ if len(raw) == 2 else XYZ)
     if len(target) == 2:
         target = [target[0], 0.0, target[1]]
-    if len(target) != 3:
-        raise ConfigError(f"{t.path}.{key}_ee: expected [x, z] or [x, y, z]")
     frame = t.string("ee_frame", "ee" if arm.model.existFrame("ee") else arm.model.frames[-1].name)
     try:
         return solve_position_ik(arm, frame, np.array(target), world=world, seed=ik_seed)
@@ -405,28 +432,27 @@ def parse_energy_scenario(
     if seed is not None:
         options = replace(options, seed=int(seed))
     obstacles = []
+    lim = _Lims.of(arm)
     for t in top.tables("obstacles"):
-        obstacles.append(_shape(t))
+        obstacles.append(_shape(t, lim))
         t.done()
     hazards = []
     for t in top.tables("hazards"):
-        clearance = t.number("clearance", 0.0, nonnegative=True)
-        hazards.append(Hazard(_shape(t), clearance))
+        clearance = t.number("clearance", 0.0, nonnegative=True, bound=lim.gap)
+        hazards.append(Hazard(_shape(t, lim), clearance))
         t.done()
     try:
         world = World(tuple(obstacles), tuple(hazards))
     except ValueError as exc:
         raise ConfigError(f"obstacles: {exc}") from None
     sensor = top.table("sensor")
-    sensor_range = sensor.number("range", None, nonnegative=True)
+    sensor_range = sensor.number("range", None, nonnegative=True, bound=lim.gap)
     sensor.done()
     if world.hidden_names() and sensor_range is None:
         raise ConfigError("sensor.range: required when some obstacles are hidden")
     planner_t = top.table("planner")
     planner = planner_t.string("algorithm", DEFAULT_PLANNER, choices=tuple(PLANNERS))
-    penalty = planner_t.number("hazard_penalty", math.inf)
-    if not penalty >= 1.0:
-        raise ConfigError(f"planner.hazard_penalty: must be ≥ 1 (inf removes edges), got {penalty}")
+    penalty = planner_t.number("hazard_penalty", math.inf, bound=BOUNDS["hazard_penalty"])
     planner_t.done()
     task = top.table("task", required=True)
     ik_seed = task.integer("ik_seed", 0, minimum=0, maximum=LIMITS["seed"] - 1)

@@ -76,8 +76,9 @@ def solve_position_ik(
         mid, half = (lo + hi) / 2, np.maximum((hi - lo) / 2, 1e-12)
         return min(solutions, key=lambda q: float(np.max(np.abs(q - mid) / half)))
     if converged == 0:
+        closest = f"closest {best:.3g} m" if np.isfinite(best) else "no finite residual"
         raise ValueError(
             f"target {target.tolist()} is out of reach of frame {frame!r} "
-            f"(closest {best:.3g} m after {len(starts)} starts)"
+            f"({closest} after {len(starts)} starts)"
         )
     raise ValueError(f"every IK solution found for {target.tolist()} is in collision")

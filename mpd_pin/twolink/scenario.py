@@ -74,7 +74,8 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from ..app.arm_source import arm_from_table
-from ..app.config import ConfigError, Table
+from ..app.config import ConfigError, Table, check_array
+from ..app.limits import BOUNDS, INT_LIMITS, Bound, position_bound, size_bound
 from ..arm.model import Arm
 from .fcs import Grid
 from .ik import link_lengths
@@ -111,52 +112,65 @@ class DynamicScenario:
     data: dict[str, Any] = field(default_factory=dict)
 
 
-def _pair(t: Table, key: str, default: Any = ...) -> tuple[float, float]:
-    v = t.vector(key, default, length=2)
+def _pair(t: Table, key: str, default: Any = ..., bound: Bound | None = None,
+          labels: tuple[str, str] = ("x", "z")) -> tuple[float, float]:
+    v = t.vector(key, default, length=2, bound=bound, labels=labels)
     return (float(v[0]), float(v[1]))
 
 
-def _obstacle(t: Table, index: int) -> MovingObstacle:
+def _points(t: Table, pos: Bound) -> tuple[tuple[float, float], ...]:
+    pts = t.raw("points")
+    if not isinstance(pts, list) or len(pts) < 2:
+        raise ConfigError(f"{t.path}.points: expected at least two [x, z] pairs")
+    if len(pts) > INT_LIMITS["polyline_points"]:
+        raise ConfigError(f"{t.path}.points: at most {INT_LIMITS['polyline_points']} points, "
+                          f"got {len(pts)}")
+    out = []
+    for i, p in enumerate(pts):
+        if not isinstance(p, list) or len(p) != 2:
+            raise ConfigError(f"{t.path}.points[{i}]: expected an [x, z] pair, got {p!r}")
+        x, z = check_array(f"{t.path}.points[{i}]", p, pos, ("x", "z"))
+        out.append((x, z))
+    return tuple(out)
+
+
+def _obstacle(t: Table, index: int, arm: Arm) -> MovingObstacle:
+    pos, size = position_bound(arm), size_bound(arm)
     name = t.string("name", f"obstacle{index}")
-    radius = t.number("radius", positive=True)
+    radius = t.number("radius", positive=True, bound=size)
+
+    def speed() -> float:
+        return t.number("speed", positive=True, bound=BOUNDS["speed"])
+
+    def delay() -> float:
+        return t.number("delay", 0.0, nonnegative=True, bound=BOUNDS["delay"])
+
+    def phase() -> float:
+        return t.number("phase", 0.0, nonnegative=True, bound=BOUNDS["phase"])
+
     motion = t.string("motion", choices=MOTIONS)
     try:
         if motion == "static":
-            traj = static(_pair(t, "center"))
+            traj = static(_pair(t, "center", bound=pos))
         elif motion == "straight":
-            traj = straight(
-                _pair(t, "start"),
-                _pair(t, "end"),
-                t.number("speed", positive=True),
-                delay=t.number("delay", 0.0, nonnegative=True),
-            )
+            traj = straight(_pair(t, "start", bound=pos), _pair(t, "end", bound=pos), speed(),
+                            delay=delay())
         elif motion == "back_and_forth":
-            traj = back_and_forth(
-                _pair(t, "a"),
-                _pair(t, "b"),
-                t.number("speed", positive=True),
-                delay=t.number("delay", 0.0, nonnegative=True),
-                phase=t.number("phase", 0.0, nonnegative=True),
-            )
+            traj = back_and_forth(_pair(t, "a", bound=pos), _pair(t, "b", bound=pos), speed(),
+                                  delay=delay(), phase=phase())
         elif motion == "square":
             traj = square(
-                _pair(t, "center"),
-                t.number("side", positive=True),
-                t.number("speed", positive=True),
+                _pair(t, "center", bound=pos),
+                t.number("side", positive=True, bound=size),
+                speed(),
                 clockwise=t.boolean("clockwise", False),
-                delay=t.number("delay", 0.0, nonnegative=True),
-                phase=t.number("phase", 0.0, nonnegative=True),
+                delay=delay(),
+                phase=phase(),
             )
         else:
-            pts = t.raw("points")
-            if not isinstance(pts, list) or len(pts) < 2:
-                raise ConfigError(f"{t.path}.points: expected at least two [x, z] pairs")
             traj = PolylineTrajectory(
-                tuple(tuple(p) for p in pts),
-                t.number("speed", positive=True),
-                t.string("mode", "once", choices=MODES),
-                t.number("delay", 0.0, nonnegative=True),
-                t.number("phase", 0.0, nonnegative=True),
+                _points(t, pos), speed(), t.string("mode", "once", choices=MODES), delay(),
+                phase(),
             )
     except ConfigError:
         raise
@@ -180,10 +194,13 @@ def _samples(t: Table, key: str) -> list[int] | None:
     val = t.raw(key, None)
     if val is None:
         return None
+    top = INT_LIMITS["max_samples"]
     if not isinstance(val, list) or not all(
-        isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in val
+        isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= top for v in val
     ):
-        raise ConfigError(f"{t.path}.{key}: expected a list of sample indices ≥ 0, got {val!r}")
+        raise ConfigError(
+            f"{t.path}.{key}: expected a list of sample indices in [0, {top}], got {val!r}"
+        )
     return list(val)
 
 
@@ -206,10 +223,11 @@ def parse_dynamic_scenario(
 
     arm = _arm(top.table("arm"), base_dir)
 
+    pos, size, gap = position_bound(arm), size_bound(arm), size_bound(arm, zero=True)
     g = top.table("grid")
-    gx = _pair(g, "x", [-1.0, 1.0])
-    gz = _pair(g, "z", [-1.0, 1.0])
-    step = g.number("step", 0.05, positive=True)
+    gx = _pair(g, "x", [-1.0, 1.0], bound=pos, labels=("min", "max"))
+    gz = _pair(g, "z", [-1.0, 1.0], bound=pos, labels=("min", "max"))
+    step = g.number("step", 0.05, positive=True, bound=size)
     g.done()
     try:
         grid = Grid(gx[0], gx[1], gz[0], gz[1], step)
@@ -217,34 +235,36 @@ def parse_dynamic_scenario(
         raise ConfigError(f"grid: {exc}") from None
 
     m = top.table("motion")
-    ts = m.number("sample_time", 0.01, positive=True)
-    margin = m.number("margin", 0.03, nonnegative=True)
-    max_joint_step = m.number("max_joint_step", None, positive=True)
-    substeps = m.integer("substeps", 4, minimum=1)
-    switch_penalty = m.number("switch_penalty", 0.05, nonnegative=True)
-    max_samples = m.integer("max_samples", 400, minimum=1)
-    lookahead = m.integer("lookahead", 5, minimum=1)
+    ts = m.number("sample_time", 0.01, positive=True, bound=BOUNDS["sample_time"])
+    margin = m.number("margin", 0.03, nonnegative=True, bound=gap)
+    max_joint_step = m.number("max_joint_step", None, positive=True,
+                              bound=BOUNDS["max_joint_step"])
+    substeps = m.integer("substeps", 4, minimum=1, maximum=INT_LIMITS["substeps"])
+    switch_penalty = m.number("switch_penalty", 0.05, nonnegative=True, bound=gap)
+    max_samples = m.integer("max_samples", 400, minimum=1, maximum=INT_LIMITS["max_samples"])
+    lookahead = m.integer("lookahead", 5, minimum=1, maximum=INT_LIMITS["lookahead"])
     m.done()
 
     task = top.table("task", required=True)
-    start = _pair(task, "start")
-    goal = _pair(task, "goal")
+    start = _pair(task, "start", bound=pos)
+    goal = _pair(task, "goal", bound=pos)
     start_branch = task.string("start_branch", "up", choices=("up", "down"))
     goal_branch = task.string("goal_branch", "any", choices=("up", "down", "any"))
     task.done()
 
     p = top.table("pso")
-    particles = p.integer("particles", 30, minimum=1)
-    iterations = p.integer("iterations", 60, minimum=0)
-    via = p.integer("via_points", 15, minimum=1)
-    c1 = p.number("c1", 1.0, nonnegative=True)
-    c2 = p.number("c2", 3.0, nonnegative=True)
-    w = p.number("w", 1.0, nonnegative=True)
+    particles = p.integer("particles", 30, minimum=1, maximum=INT_LIMITS["particles"])
+    iterations = p.integer("iterations", 60, minimum=0, maximum=INT_LIMITS["iterations"])
+    via = p.integer("via_points", 15, minimum=1, maximum=INT_LIMITS["via_points"])
+    c1, c2, w = (p.number(c, d, nonnegative=True, bound=BOUNDS["pso_coefficient"])
+                 for c, d in (("c1", 1.0), ("c2", 3.0), ("w", 1.0)))
     k = p.number("k", 0.2, positive=True)
     seed_val = p.raw("seed", 1)
     if seed_val is not None and (isinstance(seed_val, bool) or not isinstance(seed_val, int)
-                                 or seed_val < 0):
-        raise ConfigError(f"pso.seed: expected an integer ≥ 0, got {seed_val!r}")
+                                 or not 0 <= seed_val <= INT_LIMITS["seed"]):
+        raise ConfigError(
+            f"pso.seed: expected an integer in [0, {INT_LIMITS['seed']}], got {seed_val!r}"
+        )
     spline_bc = p.string("spline_bc", "clamped", choices=("clamped", "natural", "not-a-knot"))
     p.done()
     if not 0.1 <= k <= 1.0:
@@ -255,7 +275,7 @@ def parse_dynamic_scenario(
     snapshot_samples = _samples(pl, "snapshot_samples")
     pl.done()
 
-    obstacles = [_obstacle(t, i) for i, t in enumerate(top.tables("obstacles"))]
+    obstacles = [_obstacle(t, i, arm) for i, t in enumerate(top.tables("obstacles"))]
     top.done()
     try:
         scene = MovingScene(obstacles, ts)

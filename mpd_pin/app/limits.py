@@ -1,0 +1,159 @@
+"""Physical ranges of every number a scenario file may hold (docs/design.md §7b).
+
+A scenario value outside its range is refused when it is read (:class:`~mpd_pin.app.config.Table`
+calls :meth:`Bound.check`), with one line naming the key and the bound, so that no numerical
+routine ever sees an absurd or non-finite number. Two kinds of bound:
+
+* fixed ones, :data:`BOUNDS` — far beyond any real motor, gain or step size, tight enough
+  that a typo (``1e308``, degrees for radians) fails clearly;
+* lengths relative to the arm: :func:`workspace_bound` is ``WORKSPACE_FACTOR`` (10) times the
+  arm's reach (:func:`arm_reach`, an upper bound of the distance of any frame from the base);
+  positions (obstacle centres, vertices, trajectories, end-effector targets, grid corners)
+  must lie within ± that bound per coordinate, sizes (widths, radii, sides, clearances,
+  margins) within (0, 2 × bound].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import ConfigError
+
+__all__ = [
+    "BOUNDS",
+    "Bound",
+    "WORKSPACE_FACTOR",
+    "arm_reach",
+    "workspace_bound",
+    "position_bound",
+    "size_bound",
+]
+
+#: Positions within ± this many times the arm's reach (m).
+WORKSPACE_FACTOR = 10.0
+
+
+@dataclass(frozen=True)
+class Bound:
+    """A closed range ``[lo, hi]`` of one physical quantity (``lo_open``: ``lo`` excluded)."""
+
+    lo: float
+    hi: float
+    unit: str = ""
+    what: str = ""  # e.g. "the workspace bound" (symmetric ranges), else "the range"
+    lo_open: bool = False
+    allow_inf: bool = False  # +inf accepted as a value with a meaning (e.g. "no edge")
+    note: str = ""  # appended to the description, e.g. "or inf: no edge"
+
+    def describe(self) -> str:
+        u = f" {self.unit}" if self.unit else ""
+        note = f", {self.note}" if self.note else ""
+        if self.lo == -self.hi and not self.lo_open:
+            return f"{self.what or 'the bound'} of ±{self.hi:g}{u}{note}"
+        left = "(" if self.lo_open else "["
+        return f"{self.what or 'the range'} {left}{self.lo:g}, {self.hi:g}]{u}{note}"
+
+    def check(self, name: str, value: float) -> float:
+        """``value`` if within range, else ConfigError naming ``name`` and the bound."""
+        u = f" {self.unit}" if self.unit else ""
+        if math.isinf(value) and value > 0 and self.allow_inf:
+            return value
+        if not math.isfinite(value):
+            raise ConfigError(f"{name} = {value} is not a finite number "
+                              f"(expected within {self.describe()})")
+        below = value <= self.lo if self.lo_open else value < self.lo
+        if below or value > self.hi:
+            raise ConfigError(f"{name} = {value:g}{u} is outside {self.describe()}")
+        return value
+
+
+def _b(lo: float, hi: float, unit: str, what: str, **kw) -> Bound:
+    return Bound(lo, hi, unit, what, **kw)
+
+
+#: Fixed ranges of the scenario numbers that do not scale with the arm (SI units).
+BOUNDS: dict[str, Bound] = {
+    # motors (docs/design.md §3a); the presets are R 1–2 Ω, L 1e-3–0.5 H, Kt 0.01–0.03
+    "R": _b(1e-6, 1e4, "Ω", "the motor resistance range"),
+    "L": _b(1e-9, 100.0, "H", "the motor inductance range"),
+    "Kt": _b(1e-6, 100.0, "N·m/A", "the torque constant range"),
+    "Ke": _b(0.0, 100.0, "V·s/rad", "the back-EMF constant range"),
+    "B": _b(0.0, 100.0, "N·m·s/rad", "the motor friction range"),
+    "J": _b(0.0, 100.0, "kg·m²", "the rotor inertia range"),
+    "gear_ratio": _b(1e-3, 1e5, "", "the gear ratio range"),
+    "v_max": _b(1e-3, 1e4, "V", "the supply voltage range"),
+    # controller (§3c)
+    "kp": _b(0.0, 1e6, "V/rad", "the gain range"),
+    "kd": _b(0.0, 1e6, "V·s/rad", "the gain range"),
+    # roadmap (§4e)
+    "dt": _b(1e-9, 1.0, "s", "the step size range"),  # and ≤ 100000 steps per edge
+    "duration": _b(1e-3, 60.0, "s", "the edge duration range"),
+    "joint_speed": _b(1e-3, 1e3, "rad/s", "the joint speed range"),
+    "resolution": _b(1e-3, 2 * math.pi, "rad", "the resolution range"),
+    "arrival_tolerance": _b(0.0, math.pi, "rad", "the tolerance range", lo_open=True),
+    "angle": _b(-2 * math.pi, 2 * math.pi, "rad", "the angle bound"),
+    "hazard_penalty": _b(1.0, 1e12, "", "the penalty range", allow_inf=True,
+                         note="or inf: edges through a hazard removed"),
+    # dynamic2link (§6)
+    "sample_time": _b(1e-4, 1.0, "s", "the sample time range"),
+    "max_joint_step": _b(0.0, math.pi, "rad", "the joint step range", lo_open=True),
+    "speed": _b(0.0, 1e3, "m/s", "the obstacle speed range", lo_open=True),
+    "delay": _b(0.0, 1e5, "s", "the delay range"),
+    "phase": _b(0.0, 1.0, "", "the phase range"),
+    "pso_coefficient": _b(0.0, 10.0, "", "the PSO coefficient range"),
+}
+
+#: Integer ranges of dynamic2link counts (the energy roadmap's are in scenario.LIMITS).
+INT_LIMITS = {
+    "substeps": 100,
+    "max_samples": 100_000,
+    "lookahead": 10_000,
+    "particles": 10_000,
+    "iterations": 100_000,
+    "via_points": 1_000,
+    "seed": 2**63 - 1,
+    "polyline_points": 10_000,
+}
+
+
+def arm_reach(arm) -> float:
+    """An upper bound (m) of the distance of any frame of ``arm`` from the world origin.
+
+    The sum of the joints' placement offsets, the largest prismatic travel of each
+    joint and the largest frame offset from its joint (triangle inequality).
+    """
+    model = arm.model
+    lo, hi = np.asarray(model.lowerPositionLimit), np.asarray(model.upperPositionLimit)
+    reach = 0.0
+    for j in range(1, model.njoints):
+        reach += float(np.linalg.norm(model.jointPlacements[j].translation))
+        short = model.joints[j].shortname()
+        if short.startswith("JointModelP") and not short.startswith("JointModelPlanar"):
+            # a prismatic joint adds its travel
+            i = model.joints[j].idx_q
+            travel = np.abs(np.concatenate([lo[i:i + 1], hi[i:i + 1]]))
+            reach += float(np.max(travel[np.isfinite(travel)], initial=0.0))
+    reach += max((float(np.linalg.norm(f.placement.translation)) for f in model.frames),
+                 default=0.0)
+    return max(reach, 0.1)
+
+
+def workspace_bound(arm) -> float:
+    """± this (m) per coordinate bounds every position in a scenario of ``arm``."""
+    return float(f"{WORKSPACE_FACTOR * arm_reach(arm):.2g}")
+
+
+def position_bound(arm) -> Bound:
+    """The range of one coordinate of a position (m)."""
+    w = workspace_bound(arm)
+    return Bound(-w, w, "m", "the workspace bound",
+                 note=f"{WORKSPACE_FACTOR:g} × the arm's reach of {arm_reach(arm):.3g} m")
+
+
+def size_bound(arm, *, zero: bool = False) -> Bound:
+    """The range of a size, radius, clearance or margin (m): (0, 2 × workspace bound]
+    (``zero``: 0 allowed)."""
+    return Bound(0.0, 2 * workspace_bound(arm), "m", "the size range", lo_open=not zero)

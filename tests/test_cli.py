@@ -93,7 +93,7 @@ def test_builtin_energy_scenario_end_to_end(name, builtin_run):
         assert result["seconds_per_phase"][phase] >= 0
     # CPU seconds (time.process_time) per phase, beside the wall-clock ones: disjoint phases
     # inside the total, so they sum to at most the total.
-    phases = ("roadmap", "search", "verification", "plots", "replay")
+    phases = ("roadmap", "search", "verification", "comparison", "trajectory", "plots", "replay")
     cpu = result["cpu_seconds_per_phase"]
     assert set(cpu) == {*phases, "total"}
     assert all(cpu[k] >= 0 for k in cpu), cpu

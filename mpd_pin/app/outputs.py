@@ -97,9 +97,12 @@ def write_plots(
     """``path.png``, ``joint_angles.png``, ``energy.png`` (paper 000 Figs. 12–17); with
     ``shortest`` (its plan and re-simulation) the path figure overlays the shortest
     joint-space path and the energy figure shows both cumulative totals."""
+    import sys
+
     import matplotlib
 
-    matplotlib.use("Agg", force=False)
+    if "matplotlib.pyplot" not in sys.modules:  # keep a backend already chosen (a notebook's)
+        matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
     from ..viz.plots import plot_arm_path, plot_cumulative_energy, plot_joint_angles

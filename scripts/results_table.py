@@ -6,7 +6,9 @@ Each scenario runs as ``mpd-pin run NAME --out OUT/NAME --quiet``, one after the
 other; the tables are read back from the result.json files the command wrote.
 
 Paper-000 scenarios (the counterpart of paper 000's Tables 8–11): E⁺ per joint
-and in total (J), path length in nodes, roadmap size, and CPU seconds as the
+and in total (J), path length in nodes and in rad, the E⁺ of the shortest joint-space
+path planned the same way and the percentage the energy-optimal path saves against
+it (``comparison`` of result.json, docs/design.md §7c), roadmap size, and CPU seconds as the
 command measured them (``cpu_seconds_per_phase``: ``time.process_time`` of the
 mpd-pin process, all its threads) for the roadmap, the search (with hazard
 re-planning and sensing/repair) and the whole run, plus the run's wall-clock
@@ -44,9 +46,18 @@ def energy_row(name: str, r: dict) -> str:
     per_joint = " / ".join(f"{e:.4g}" for e in r["energy_per_joint"])
     cpu, wall = r["cpu_seconds_per_phase"], r["seconds_per_phase"]
     size = f"{r['roadmap']['num_nodes']} / {r['roadmap']['num_edges']}"
+    cmp = r["comparison"]
+    short = cmp["shortest_path"]
+    saved = cmp["energy_saved_percent"]
     notes = []
     if "execution" in r:
         notes.append(f"{len(r['execution']['replans'])} replan(s)")
+        b = cmp["before_obstacle"]
+        notes.append(
+            f"executed motions compared; plans before the obstacle: "
+            f"{b['optimal']['total_energy']:.4g} vs {b['shortest_path']['total_energy']:.4g} J, "
+            f"{b['energy_saved_percent']:.1f} % saved"
+        )
     if "hazard_replanning" in r:
         h = r["hazard_replanning"]
         notes.append(
@@ -57,7 +68,9 @@ def energy_row(name: str, r: dict) -> str:
         )
     return (
         f"| {name} | {r['arm']} | {per_joint} | {r['total_energy']:.4g} | "
-        f"{r['path']['length_nodes']} | {size} | "
+        f"{r['path']['length_nodes']} | {r['path']['length_rad']:.3f} | "
+        f"{short['total_energy']:.4g} | {short['length_nodes']} | {short['length_rad']:.3f} | "
+        f"{'n/a' if saved is None else f'{saved:.1f}'} | {size} | "
         f"{cpu['roadmap']:.2f} | {1e3 * cpu['search']:.1f} | {cpu['total']:.2f} | "
         f"{wall['total']:.2f} | {'; '.join(notes)} |"
     )
@@ -99,10 +112,11 @@ def main() -> None:
         else:
             dynamic_rows.append(dynamic_row(name, r, process_cpu))
     if energy_rows:
-        print("| scenario | arm | E⁺ per joint (J) | total (J) | path nodes | roadmap nodes / "
-              "edges | CPU roadmap (s) | CPU search (ms) | CPU total (s) | wall total (s) | "
-              "notes |")
-        print("|---|---|---|---|---|---|---|---|---|---|---|")
+        print("| scenario | arm | E⁺ per joint (J) | total (J) | path nodes | path (rad) | "
+              "shortest path E⁺ (J) | shortest nodes | shortest (rad) | saved (%) | "
+              "roadmap nodes / edges | CPU roadmap (s) | CPU search (ms) | CPU total (s) | "
+              "wall total (s) | notes |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         print("\n".join(energy_rows))
     if dynamic_rows:
         print()

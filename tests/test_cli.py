@@ -93,7 +93,7 @@ def test_builtin_energy_scenario_end_to_end(name, builtin_run):
         assert result["seconds_per_phase"][phase] >= 0
     # CPU seconds (time.process_time) per phase, beside the wall-clock ones: disjoint phases
     # inside the total, so they sum to at most the total.
-    phases = ("roadmap", "search", "verification", "plots", "replay")
+    phases = ("roadmap", "search", "verification", "comparison", "trajectory", "plots", "replay")
     cpu = result["cpu_seconds_per_phase"]
     assert set(cpu) == {*phases, "total"}
     assert all(cpu[k] >= 0 for k in cpu), cpu
@@ -228,6 +228,14 @@ def test_replan_replay_html_decoded_and_rendered(builtin_run, tmp_path):
     assert len(initial) > len(result["execution"]["initial_path"])
     np.testing.assert_allclose(initial[0], travelled[0], atol=1e-6)  # both from the start
     assert np.linalg.norm(initial[-1] - _ee_positions(arm, Q[-1:])[0]) < 1e-6  # to the goal
+    # ... and the shortest joint-space path (executed with the same sensing), named in the
+    # page's legend (docs/design.md §7c)
+    short = _line_points(commands, "end effector (shortest joint-space path)")
+    nodes = result["comparison"]["shortest_path"]["nodes"]
+    assert len(short) > len(nodes)
+    np.testing.assert_allclose(short[0], travelled[0], atol=1e-6)
+    assert np.linalg.norm(short[-1] - _ee_positions(arm, Q[-1:])[0]) < 1e-6
+    assert "&#9472;&#9472;</span> end effector (shortest joint-space path)" in page
 
     # Rendered: before the reveal no orange obstacle; after the motion a real picture
     # with the revealed obstacle on screen.

@@ -19,6 +19,14 @@ where every non-finite number is ``null``) holds:
 * ``path`` — ``nodes``, ``configurations`` (rad), ``length_nodes``, ``node_times`` (s: the
   arm is at ``nodes[k]`` at ``node_times[k]``); ``energy_per_joint`` and ``total_energy``
   (E⁺, J, unpenalised);
+* ``path`` also has ``length_rad``: Σ over its edges of ‖Δq‖₂ (rad);
+* ``comparison`` (:func:`comparison_record`, docs/design.md §7c) — the shortest joint-space
+  path planned the same way on distance costs: ``basis``, ``cost``, ``planner``,
+  ``shortest_path`` (``nodes``, ``length_nodes``, ``length_rad``, ``energy_per_joint``,
+  ``total_energy`` — roadmap E⁺, J — and their ``*_simulate_edge`` re-simulations),
+  ``energy_saved_percent`` = 100·(1 − E_opt/E_shortest) (roadmap energies; ``null`` when
+  E_shortest = 0), ``energy_saved_percent_simulate_edge``; with hidden obstacles also
+  ``before_obstacle`` (the two initial plans, roadmap energies);
 * ``verification`` (``Verification.to_dict``); ``replay`` (when written);
 * ``seconds_per_phase`` — wall-clock seconds per phase, the roadmap's sub-phases as
   ``roadmap_<name>`` and ``roadmap_total``; ``cpu_seconds_per_phase`` and
@@ -36,7 +44,7 @@ import numpy as np
 
 from ..dynamics.simulate import current_model
 from ..planning.roadmap import Roadmap
-from .plan import PlanResult, Setup
+from .plan import PlanResult, Setup, path_length
 from .results import to_jsonable, write_json
 from .scenario import EnergyScenario
 from .timing import PhaseClock
@@ -48,8 +56,13 @@ __all__ = [
     "write_plots",
     "write_replay_html",
     "result_record",
+    "comparison_record",
     "write_result",
+    "SHORTEST_LABEL",
 ]
+
+#: Label of the shortest joint-space path in the plots and the replay.
+SHORTEST_LABEL = "shortest joint-space path"
 
 #: At most about this many samples of the simulated motion go into replay.html.
 REPLAY_SAMPLES = 600
@@ -74,31 +87,50 @@ def replay_indices(n: int, target: int = REPLAY_SAMPLES) -> np.ndarray:
 
 
 def write_plots(
-    out_dir: Path, scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Verification
+    out_dir: Path,
+    scn: EnergyScenario,
+    setup: Setup,
+    plan: PlanResult,
+    check: Verification,
+    shortest: tuple[PlanResult, Verification] | None = None,
 ) -> None:
-    """``path.png``, ``joint_angles.png``, ``energy.png`` (paper 000 Figs. 12–17)."""
+    """``path.png``, ``joint_angles.png``, ``energy.png`` (paper 000 Figs. 12–17); with
+    ``shortest`` (its plan and re-simulation) the path figure overlays the shortest
+    joint-space path and the energy figure shows both cumulative totals."""
+    import sys
+
     import matplotlib
 
-    matplotlib.use("Agg", force=False)
+    if "matplotlib.pyplot" not in sys.modules:  # keep a backend already chosen (a notebook's)
+        matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
     from ..viz.plots import plot_arm_path, plot_cumulative_energy, plot_joint_angles
 
     roadmap, series, path = setup.roadmap, check.series, plan.path
     names = scn.arm.joint_names
+    others = {k: roadmap.nodes[v] for k, v in plan.other_paths.items()}
+    compare = None
+    if shortest is not None:
+        sp, sc = shortest
+        label = f"{SHORTEST_LABEL} ({float(sp.energy.sum()):.4g} J)"
+        others[label] = roadmap.nodes[sp.path]
+        compare = (sc.series["t"], sc.series["energy_t"].sum(axis=1), SHORTEST_LABEL)
     figs = {
         "path.png": plot_arm_path(
             scn.arm,
             setup.world,
             roadmap.nodes[path],
             Q_motion=series["q"],
-            other_paths={k: roadmap.nodes[v] for k, v in plan.other_paths.items()},
+            other_paths=others,
             title=f"{scn.name}: {float(plan.energy.sum()):.4g} J, {len(path)} nodes",
         ),
         "joint_angles.png": plot_joint_angles(
             series["t"], series["q"], names, node_times=series["node_times"]
         ),
-        "energy.png": plot_cumulative_energy(series["t"], series["energy_t"], names),
+        "energy.png": plot_cumulative_energy(
+            series["t"], series["energy_t"], names, compare=compare
+        ),
     }
     for fname, fig in figs.items():
         fig.savefig(out_dir / fname, dpi=110)
@@ -106,11 +138,17 @@ def write_plots(
 
 
 def write_replay_html(
-    out_dir: Path, scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Verification
+    out_dir: Path,
+    scn: EnergyScenario,
+    setup: Setup,
+    plan: PlanResult,
+    check: Verification,
+    shortest: PlanResult | None = None,
 ) -> dict[str, Any]:
     """``replay.html``: about :data:`REPLAY_SAMPLES` samples of the simulated motion, hidden
     obstacles switched on when they were revealed, end-effector traces of the plans not
-    followed and of the motion. Returns the ``replay`` entry of result.json (times in s)."""
+    followed, of the ``shortest`` joint-space path (when given) and of the motion. Returns
+    the ``replay`` entry of result.json (times in s)."""
     from ..viz.plots import ee_trace
     from ..viz.replay import write_replay
 
@@ -130,6 +168,10 @@ def write_replay_html(
         )
         for name, nodes in plan.other_paths.items()
     }
+    if shortest is not None:
+        lines[f"end effector ({SHORTEST_LABEL})"] = ee_trace(
+            scn.arm, straight_line_configurations(roadmap, shortest.path, resolution)
+        )
     lines["end effector (travelled)"] = ee_trace(scn.arm, q_rep)  # drawn last: on top
     write_replay(
         scn.arm,
@@ -179,8 +221,10 @@ def result_record(
     check: Verification,
     replay: dict[str, Any] | None,
     clock: PhaseClock,
+    comparison: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """The content of result.json (see the module docstring), not yet encoded."""
+    """The content of result.json (see the module docstring), not yet encoded;
+    ``comparison`` from :func:`comparison_record`."""
     motor = scn.motor
     record: dict[str, Any] = {
         "scenario": scn.name,
@@ -205,15 +249,78 @@ def result_record(
         "nodes": [int(n) for n in plan.path],
         "configurations": setup.roadmap.nodes[plan.path],
         "length_nodes": len(plan.path),
+        "length_rad": path_length(setup.roadmap, plan.path),
         "node_times": check.series["node_times"],
     }
     record["energy_per_joint"] = plan.energy
     record["total_energy"] = float(plan.energy.sum())
+    if comparison is not None:
+        record["comparison"] = comparison
     record["verification"] = check.to_dict()
     if replay is not None:
         record["replay"] = replay
     record.update(_timing_record(setup.roadmap, clock))
     return record
+
+
+def _saved_percent(e_opt: float, e_short: float) -> float:
+    """100·(1 − e_opt/e_short) (%); NaN (``null``) when e_short is 0."""
+    return 100.0 * (1.0 - e_opt / e_short) if e_short != 0.0 else float("nan")
+
+
+def _path_entry(roadmap: Roadmap, nodes: list[int]) -> dict[str, Any]:
+    energy = roadmap.path_energy(nodes)
+    return {
+        "nodes": [int(n) for n in nodes],
+        "length_nodes": len(nodes),
+        "length_rad": path_length(roadmap, nodes),
+        "energy_per_joint": energy,
+        "total_energy": float(energy.sum()),
+    }
+
+
+def comparison_record(
+    scn: EnergyScenario,
+    setup: Setup,
+    plan: PlanResult,
+    check: Verification,
+    shortest: PlanResult,
+    shortest_check: Verification,
+) -> dict[str, Any]:
+    """``comparison`` of result.json (module docstring; docs/design.md §7c): the
+    energy-optimal path ``plan`` against the shortest joint-space path ``shortest``."""
+    roadmap = setup.roadmap
+    if plan.execution is not None:
+        basis = "executed"
+    elif plan.hazard is not None:
+        basis = "hazard re-planned"
+    else:
+        basis = "planned"
+    entry = _path_entry(roadmap, shortest.path)
+    entry["energy_per_joint_simulate_edge"] = shortest_check.energy_per_joint
+    entry["total_energy_simulate_edge"] = float(shortest_check.energy_per_joint.sum())
+    e_opt = float(plan.energy.sum())
+    out: dict[str, Any] = {
+        "basis": basis,
+        "cost": "joint-space length: sum over edges of the Euclidean norm of q_dst - q_src (rad)",
+        "planner": scn.planner,
+        "shortest_path": entry,
+        "energy_saved_percent": _saved_percent(e_opt, entry["total_energy"]),
+        "energy_saved_percent_simulate_edge": _saved_percent(
+            float(check.energy_per_joint.sum()), entry["total_energy_simulate_edge"]
+        ),
+    }
+    if plan.execution is not None and shortest.execution is not None:
+        opt0 = _path_entry(roadmap, plan.execution.initial_path)
+        short0 = _path_entry(roadmap, shortest.execution.initial_path)
+        out["before_obstacle"] = {
+            "optimal": opt0,
+            "shortest_path": short0,
+            "energy_saved_percent": _saved_percent(
+                opt0["total_energy"], short0["total_energy"]
+            ),
+        }
+    return out
 
 
 def write_result(out_dir: Path, record: dict[str, Any]) -> dict[str, Any]:

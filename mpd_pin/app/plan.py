@@ -10,12 +10,16 @@ scenario. :func:`plan_path` then finds the path, in one of three modes:
   plan, senses and repairs; the path is the one travelled.
 
 Energies are always the roadmap's own (unpenalised) E⁺.
+
+:func:`plan_shortest` plans the same scenario — same roadmap edges, obstacles, hazard
+re-planning, sensing and repair, same planner — on the *distance* costs of
+:func:`edge_lengths` (the usual PRM objective), for the comparison of docs/design.md §7c.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +35,16 @@ from ..search import PLANNERS
 from ..world import World
 from .scenario import EnergyScenario
 
-__all__ = ["Setup", "PlanResult", "prepare", "plan_path"]
+__all__ = [
+    "Setup",
+    "PlanResult",
+    "prepare",
+    "plan_path",
+    "plan_shortest",
+    "edge_lengths",
+    "path_length",
+    "distance_roadmap",
+]
 
 
 @dataclass
@@ -84,26 +97,73 @@ def prepare(
     return Setup(drive, world, checker, roadmap, world.to_dict())
 
 
+def edge_lengths(roadmap: Roadmap) -> np.ndarray:
+    """(E,) joint-space length of every directed edge (rad): the Euclidean norm
+    ``‖q_dst − q_src‖₂`` (docs/design.md §7c)."""
+    return np.linalg.norm(roadmap.nodes[roadmap.dst] - roadmap.nodes[roadmap.src], axis=1)
+
+
+def path_length(roadmap: Roadmap, path: list[int]) -> float:
+    """Joint-space length of a node path (rad): Σ over its edges of ``‖Δq‖₂``."""
+    Q = roadmap.nodes[list(path)]
+    return float(np.linalg.norm(np.diff(Q, axis=0), axis=1).sum()) if len(path) > 1 else 0.0
+
+
+def distance_roadmap(roadmap: Roadmap) -> Roadmap:
+    """A copy of ``roadmap`` (same nodes and edges) whose costs are the edge lengths (rad),
+    carried in the first column of ``energy`` (the others 0), so that ``graph()``, hazard
+    penalties and execution plan on distance. Only for planning: energies come from
+    ``roadmap``."""
+    cost = np.zeros_like(np.asarray(roadmap.energy, dtype=float))
+    cost[:, 0] = edge_lengths(roadmap)
+    return replace(roadmap, energy=cost)
+
+
 def plan_path(scn: EnergyScenario, setup: Setup) -> PlanResult:
     """Find the path of ``scn`` on ``setup.roadmap``: hazard re-planning first if the world
     has hazards with a clearance, then execution with sensing if it has hidden obstacles,
     else one search."""
+    return _plan_on(scn, setup, setup.roadmap)
+
+
+def plan_shortest(scn: EnergyScenario, setup: Setup) -> PlanResult:
+    """The shortest joint-space path of ``scn`` (:func:`distance_roadmap` costs), planned
+    exactly as :func:`plan_path` plans the energy-optimal one (same planner, hazard
+    re-planning, execution with sensing from the initial map). Its ``energy`` is E⁺ per
+    joint (J) from ``setup.roadmap``. The world's revealed obstacles are restored after."""
+    world = setup.world
+    revealed = sorted(world.revealed)
+    world.reset()
+    try:
+        return _plan_on(scn, setup, distance_roadmap(setup.roadmap))
+    finally:
+        world.reset()
+        if revealed:
+            world.reveal(*revealed)
+
+
+def _plan_on(scn: EnergyScenario, setup: Setup, costs: Roadmap) -> PlanResult:
+    """:func:`plan_path` with the planner seeing the costs of ``costs`` (a roadmap with the
+    nodes and edges of ``setup.roadmap``); energies reported from ``setup.roadmap``."""
     planner = PLANNERS[scn.planner]
     roadmap, world = setup.roadmap, setup.world
     hazard = None
     other_paths: dict[str, list[int]] = {}
-    plan_map = roadmap  # what the planner sees: hazard penalties applied
+    plan_map = costs  # what the planner sees: hazard penalties applied
     if any(h.clearance > 0 for h in world.hazards):
         hazard = plan_avoiding_hazards(
-            roadmap,
+            costs,
             setup.checker,
             resolution=scn.options.resolution,
             penalty=scn.hazard_penalty,
             planner=planner,
         )
+        if costs is not roadmap:  # report energies, not the planning costs
+            hazard.first_energy = roadmap.path_energy(hazard.first_path)
+            hazard.final_energy = roadmap.path_energy(hazard.final_path)
         if hazard.first_path != hazard.final_path:
             other_paths["cheapest path (too close to a hazard)"] = hazard.first_path
-        plan_map = hazard.planning_roadmap(roadmap)
+        plan_map = hazard.planning_roadmap(costs)
     if world.hidden_names():
         run = execute(
             plan_map,

@@ -7,23 +7,66 @@
   search, hazard re-planning, or execution with sensing and repair (``search``);
 * verify (:mod:`mpd_pin.app.verify`) — the path re-simulated edge by edge with
   :func:`simulate_edge` (``verification``);
-* write (:mod:`mpd_pin.app.outputs`) — ``path.png``, ``joint_angles.png``, ``energy.png``
-  (``plots``), ``replay.html`` (``replay``) and ``result.json`` (its layout is described
-  in :mod:`mpd_pin.app.outputs`).
+* compare (docs/design.md §7c) — the shortest joint-space path planned the same way on
+  distance costs, and re-simulated (``comparison``);
+* write (:mod:`mpd_pin.app.outputs`, :mod:`mpd_pin.app.trajectory`) — ``trajectory.csv``
+  and ``trajectory.json`` (``trajectory``), ``path.png``, ``joint_angles.png``,
+  ``energy.png`` (``plots``), ``replay.html`` (``replay``) and ``result.json`` (its layout
+  is described in :mod:`mpd_pin.app.outputs`).
+
+The output folder is created and probed for writing first: one that cannot be written is
+a :class:`~mpd_pin.app.config.ConfigError` before any work, and a folder this run created
+is removed again.
 """
 
 from __future__ import annotations
 
+import os
+import tempfile
 from pathlib import Path
 from typing import Any
 
-from .outputs import result_record, write_plots, write_replay_html, write_result
-from .plan import plan_path, prepare
+from .config import ConfigError
+from .outputs import (
+    comparison_record,
+    result_record,
+    write_plots,
+    write_replay_html,
+    write_result,
+)
+from .plan import plan_path, plan_shortest, prepare
 from .scenario import EnergyScenario
 from .timing import PhaseClock
+from .trajectory import (
+    DEFAULT_TRAJECTORY_RATE,
+    joint_trajectory,
+    write_trajectory_csv,
+    write_trajectory_json,
+)
 from .verify import verify_path
 
-__all__ = ["run_energy_scenario"]
+__all__ = ["run_energy_scenario", "check_output_dir"]
+
+
+def check_output_dir(out_dir: Path) -> bool:
+    """Create ``out_dir`` if needed and check a file can be written in it (removed again).
+    Returns whether it was created here. Raises :class:`ConfigError` (one line) if not."""
+    out_dir = Path(out_dir)
+    created = not out_dir.exists()
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".mpd-pin-probe.", dir=out_dir)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        if created and out_dir.is_dir():
+            try:
+                out_dir.rmdir()
+            except OSError:
+                pass
+        reason = exc.strerror or type(exc).__name__
+        raise ConfigError(f"--out {str(out_dir)!r} cannot be written ({reason})") from None
+    return created
 
 
 def run_energy_scenario(
@@ -33,24 +76,47 @@ def run_energy_scenario(
     show_progress: bool = True,
     cache: Path | None = None,
     replay: bool = True,
+    trajectory_rate: float = DEFAULT_TRAJECTORY_RATE,
 ) -> dict[str, Any]:
-    """Plan ``scn`` and write result.json, the plots and (with ``replay``) replay.html into
-    ``out_dir``; ``cache`` is a roadmap ``.npz`` to reuse or create. Returns the result as
-    written to result.json (plain JSON data, ``None`` for each non-finite number)."""
+    """Plan ``scn`` and write result.json, trajectory.csv/json (``trajectory_rate`` Hz), the
+    plots and (with ``replay``) replay.html into ``out_dir``; ``cache`` is a roadmap
+    ``.npz`` to reuse or create. Returns the result as written to result.json (plain JSON
+    data, ``None`` for each non-finite number)."""
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    if not (trajectory_rate > 0 and trajectory_rate < float("inf")):
+        raise ConfigError(f"trajectory rate must be a number > 0 (Hz), got {trajectory_rate!r}")
+    check_output_dir(out_dir)
     clock = PhaseClock()
+    dt = scn.options.dt
     with clock.phase("roadmap"):
         setup = prepare(scn, cache=cache, show_progress=show_progress)
     with clock.phase("search"):
         plan = plan_path(scn, setup)
     with clock.phase("verification"):
-        check = verify_path(setup.drive, setup.roadmap, plan.path, scn.options.dt, plan.energy)
+        check = verify_path(setup.drive, setup.roadmap, plan.path, dt, plan.energy)
+    with clock.phase("comparison"):
+        short = plan_shortest(scn, setup)
+        short_check = verify_path(setup.drive, setup.roadmap, short.path, dt, short.energy)
+        comparison = comparison_record(scn, setup, plan, check, short, short_check)
+    with clock.phase("trajectory"):
+        names, kt = scn.arm.joint_names, setup.drive.torque_per_amp
+        write_trajectory_csv(out_dir / "trajectory.csv", names, check.series, kt)
+        traj = joint_trajectory(names, check.series, kt, trajectory_rate)
+        write_trajectory_json(out_dir / "trajectory.json", traj)
     with clock.phase("plots"):
-        write_plots(out_dir, scn, setup, plan, check)
+        write_plots(out_dir, scn, setup, plan, check, (short, short_check))
     replay_record = None
     if replay:
         with clock.phase("replay"):
-            replay_record = write_replay_html(out_dir, scn, setup, plan, check)
+            replay_record = write_replay_html(out_dir, scn, setup, plan, check, short)
     clock.finish()
-    return write_result(out_dir, result_record(scn, setup, plan, check, replay_record, clock))
+    record = result_record(scn, setup, plan, check, replay_record, clock, comparison)
+    record["trajectory"] = {
+        "csv": "trajectory.csv",
+        "json": "trajectory.json",
+        "samples": len(check.series["t"]),
+        "step": dt,
+        "json_rate_hz": float(trajectory_rate),
+        "json_points": len(traj["points"]),
+    }
+    return write_result(out_dir, record)

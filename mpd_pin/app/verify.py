@@ -25,12 +25,19 @@ def simulate_path(
 ) -> dict[str, np.ndarray]:
     """Simulate every edge of ``path`` with :func:`simulate_edge` and concatenate the series.
 
-    Returns t (s), q (rad), energy_t (cumulative E⁺ per joint, J), energy per
-    edge (E⁺ per joint, J) and the node times (s).
+    Returns t (s), q (rad), v (rad/s), i (A), V (V), energy_t (cumulative E⁺ per joint, J),
+    energy per edge (E⁺ per joint, J) and the node times (s). One time base: t = 0 at the
+    start node, each later edge's first sample dropped (the previous edge's end stands for
+    it); the start sample is the first edge's (at rest, holding: i = G(q)/(n·Kt)). A
+    one-node path is that holding state alone (V = R·i with feed-forward, else 0).
     """
     nq = drive.nq
     ids = roadmap.edge_ids(path)
-    ts, qs, es = [np.zeros(1)], [roadmap.nodes[path[0]][None]], [np.zeros((1, nq))]
+    q_start = roadmap.nodes[path[0]]
+    i_hold = drive.holding_current(q_start)
+    ts, qs, es = [np.zeros(1)], [q_start[None]], [np.zeros((1, nq))]
+    V_hold = drive.R * i_hold if drive.feedforward else np.zeros(nq)
+    vs, cs, Vs = [np.zeros((1, nq))], [i_hold[None]], [V_hold[None]]
     per_edge = []
     t0, e0 = 0.0, np.zeros(nq)
     node_times = [0.0]
@@ -42,8 +49,13 @@ def simulate_path(
             float(roadmap.durations[e]),
             dt,
         )
+        if not per_edge:  # the start sample as simulated (its voltage is the controller's)
+            Vs[0] = sim.V[:1]
         ts.append(t0 + sim.t[1:])
         qs.append(sim.q[1:])
+        vs.append(sim.v[1:])
+        cs.append(sim.i[1:])
+        Vs.append(sim.V[1:])
         es.append(e0 + sim.energy_t[1:])
         per_edge.append(sim.energy)
         t0 += float(sim.t[-1])
@@ -52,6 +64,9 @@ def simulate_path(
     return {
         "t": np.concatenate(ts),
         "q": np.concatenate(qs),
+        "v": np.concatenate(vs),
+        "i": np.concatenate(cs),
+        "V": np.concatenate(Vs),
         "energy_t": np.concatenate(es),
         "edge_energy": np.array(per_edge).reshape(len(ids), nq),
         "node_times": np.array(node_times),

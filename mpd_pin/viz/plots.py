@@ -312,15 +312,27 @@ def plot_joint_angles(
 
 
 def plot_cumulative_energy(
-    t: np.ndarray, energy_t: np.ndarray, joint_names: Sequence[str], *, title: str = ""
+    t: np.ndarray,
+    energy_t: np.ndarray,
+    joint_names: Sequence[str],
+    *,
+    title: str = "",
+    compare: tuple[np.ndarray, np.ndarray, str] | None = None,
 ):
-    """Cumulative E⁺ per joint (J) and their total against time (s)."""
+    """Cumulative E⁺ per joint (J) and their total against time (s); ``compare`` =
+    (t (s), cumulative total E⁺ (J), label) of another path (e.g. the shortest joint-space
+    path, docs/design.md §7c), drawn as a second total curve."""
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(8, 4))
     for k, name in enumerate(joint_names):
         ax.plot(t, energy_t[:, k], label=f"{name}: {energy_t[-1, k]:.4g} J")
-    ax.plot(t, energy_t.sum(axis=1), "k--", label=f"total: {energy_t[-1].sum():.4g} J")
+    total = "total (energy-optimal)" if compare is not None else "total"
+    ax.plot(t, energy_t.sum(axis=1), "k--", label=f"{total}: {energy_t[-1].sum():.4g} J")
+    if compare is not None:
+        tc, ec, name = compare
+        ec = np.asarray(ec, float)
+        ax.plot(tc, ec, ":", color="#d62828", lw=2, label=f"total, {name}: {ec[-1]:.4g} J")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("energy drawn E⁺ (J)")
     ax.legend(fontsize="small", ncol=2)

@@ -365,8 +365,8 @@ def write_replay(
     start if ``world`` already reports them known, else never (they remain in the
     scene tree, switchable in the viewer). ``fps`` (frames/s) is the minimum frame
     rate (see the module docstring for the keyframe ↔ sample mapping). ``paths``
-    maps names to (N, 3) point lists (m), drawn as lines. The private meshcat
-    server is stopped before returning, also on errors. Returns ``out_path``.
+    maps names to (N, 3) point lists (m), drawn as lines and named in the caption. The
+    private meshcat server is stopped before returning, also on errors. Returns ``out_path``.
     """
     t, q, reveal, f, lines = _check_inputs(arm, world, times, Q, reveal_times, fps, paths)
     out_path = Path(out_path)
@@ -429,7 +429,8 @@ def write_replay(
             vis.set_animation(anim, play=True, repetitions=1)
         page = vis.static_html()
 
-    page = _decorate(_sequence_commands(page), title)
+    legend = [(name, PATH_COLORS[i % len(PATH_COLORS)]) for i, name in enumerate(lines)]
+    page = _decorate(_sequence_commands(page), title, legend)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     out_path.write_text(page, encoding="utf-8")
     return out_path
@@ -541,14 +542,21 @@ def _sequence_commands(page: str) -> str:
     return page[:start] + _SEQUENTIAL_LOADER.format(urls=urls) + page[end:]
 
 
-def _decorate(page: str, title: str) -> str:
-    """Put ``title`` in the page's <title> and in a small caption."""
-    if not title:
+def _decorate(page: str, title: str, legend: list[tuple[str, int]] = ()) -> str:
+    """Put ``title`` in the page's <title> and, with the ``legend`` of the end-effector
+    lines (name, colour 0xRRGGBB), in a small caption."""
+    if not title and not legend:
         return page
     esc = html.escape(title)
-    page = page.replace("<title>MeshCat</title>", f"<title>{esc}</title>", 1)
+    if title:
+        page = page.replace("<title>MeshCat</title>", f"<title>{esc}</title>", 1)
+    rows = "".join(
+        f'<br><span style="color:#{color:06x}">&#9472;&#9472;</span> {html.escape(name)}'
+        for name, color in legend
+    )
     caption = (
         '<div style="position:absolute;left:10px;top:8px;color:#fff;'
-        f'font:15px sans-serif;text-shadow:0 0 3px #000;pointer-events:none">{esc}</div>'
+        f'font:15px sans-serif;text-shadow:0 0 3px #000;pointer-events:none">{esc}'
+        f'<span style="font-size:12px">{rows}</span></div>'
     )
     return page.replace("<body>", "<body>" + caption, 1)

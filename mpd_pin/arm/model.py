@@ -194,21 +194,22 @@ def resolve_package_uri(
     """
     upath = Path(urdf_path) if urdf_path is not None else None
     dirs = [Path(d) for d in package_dirs]
+    rest = uri
     if uri.startswith("package://"):
         pkg, _, rest = uri[len("package://"):].partition("/")
-        candidates = [root / rest for root in _package_roots(pkg, upath, dirs)]
+        bases = _package_roots(pkg, upath, dirs)
     elif uri.startswith("file://"):
-        candidates = [Path(uri[len("file://"):])]
+        bases, rest = [Path("/")], uri[len("file://"):]
     elif Path(uri).is_absolute():
-        candidates = [Path(uri)]
+        bases = [Path("/")]
     else:
         bases = ([upath.resolve().parent] if upath is not None else []) + dirs
-        candidates = [b / uri for b in bases]
-    for c in candidates:
-        if c.is_file():
-            return c.resolve()
-    searched = ", ".join(str(c.parent) for c in candidates) or "nowhere (no package_dirs)"
-    raise ValueError(f"mesh {uri!r} could not be found; searched: {searched}")
+    for base in bases:
+        if (base / rest).is_file():
+            return (base / rest).resolve()
+    searched = ", ".join(str(b) for b in bases) or "no folder (no package_dirs)"
+    hint = " (package_dirs or ROS_PACKAGE_PATH add folders)" if uri.startswith("package:") else ""
+    raise ValueError(f"mesh {uri!r} could not be found; searched: {searched}{hint}")
 
 
 def _resolve_meshes(xml: str, urdf_path: Path | None, package_dirs: Sequence[str]) -> str:

@@ -312,3 +312,15 @@ def test_floating_joint_urdf_is_refused():
     assert 'type="floating"' in xml
     with pytest.raises(ValueError, match="floating joint"):
         mp.Arm.from_urdf(xml)
+
+
+def test_fingerprint_covers_unaligned_joint_axes():
+    """Two arms that differ only in a joint axis off x, y and z have different fingerprints
+    (docs/design.md §1c); the same axis gives the same one."""
+    from mpd_pin.arm.urdf import planar_arm_urdf
+
+    xml = planar_arm_urdf([0.5, 0.4], [1.0, 1.0])
+    tilted = [mp.Arm.from_urdf(xml.replace('xyz="0.0 -1.0 0.0"', f'xyz="{a}"', 1))
+              for a in ("0 0.6 0.8", "0 0.8 0.6", "0 0.6 0.8")]
+    assert "Unaligned" in tilted[0].model.joints[1].shortname()
+    assert tilted[0].fingerprint() == tilted[2].fingerprint() != tilted[1].fingerprint()

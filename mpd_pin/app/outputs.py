@@ -231,6 +231,7 @@ def result_record(
         "description": scn.description,
         "arm": scn.arm.name,
         "joint_names": scn.arm.joint_names,
+        "locked_joints": scn.arm.locked_joints,
         "motor": [asdict(m) for m in motor] if isinstance(motor, list) else asdict(motor),
         "controller": {"kp": scn.kp, "kd": scn.kd, "feedforward": scn.feedforward},
         "current_model": current_model(setup.drive, scn.options.dt),

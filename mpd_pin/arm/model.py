@@ -19,14 +19,14 @@ import hashlib
 import io
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
-__all__ = ["Arm", "GRIPPER_KEYWORDS"]
+__all__ = ["Arm", "GRIPPER_KEYWORDS", "expand_xacro", "resolve_package_uri"]
 
 #: Joints whose name contains one of these are locked by ``Arm.from_example_robot_data``.
 GRIPPER_KEYWORDS = ("finger", "gripper", "hand_joint", "jaw")
@@ -155,6 +155,173 @@ def _check_srdf_links(srdf_path: str, model: pin.Model) -> None:
         raise ValueError(f"SRDF {srdf_path!r} names links the URDF does not have: {unknown}")
 
 
+# ------------------------------------------------------- description packages (§1c)
+def _package_roots(pkg: str, urdf_path: Path | None, package_dirs: Sequence[Path]) -> list[Path]:
+    """Folders that may be the package ``pkg``, in search order (docs/design.md §1c).
+
+    Each ``package_dirs`` entry ``d`` gives ``d/pkg`` (or ``d`` itself if it is named
+    ``pkg``); then every ancestor folder of the URDF file named ``pkg``; then the URDF's
+    folder ``/pkg``; then each ``ROS_PACKAGE_PATH`` entry (``e/pkg`` or ``e`` itself).
+    """
+    roots: list[Path] = []
+
+    def add(d: Path) -> None:
+        if d.name == pkg:
+            roots.append(d)
+        roots.append(d / pkg)
+
+    for d in package_dirs:
+        add(Path(d))
+    if urdf_path is not None:
+        folder = urdf_path.resolve().parent
+        roots.extend(a for a in (folder, *folder.parents) if a.name == pkg)
+        roots.append(folder / pkg)
+    for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep):
+        if entry:
+            add(Path(entry))
+    return list(dict.fromkeys(roots))
+
+
+def resolve_package_uri(
+    uri: str, urdf_path: str | os.PathLike | None = None, package_dirs: Sequence[str] = ()
+) -> Path:
+    """The file a URDF mesh ``filename`` names (ValueError naming the URI and the folders
+    searched if there is none).
+
+    ``package://NAME/rest`` is looked up in the package folders of :func:`_package_roots`;
+    ``file://`` and absolute paths are taken as they are; a relative path is relative to
+    the URDF's folder, then to each of ``package_dirs`` (docs/design.md §1c).
+    """
+    upath = Path(urdf_path) if urdf_path is not None else None
+    dirs = [Path(d) for d in package_dirs]
+    rest = uri
+    if uri.startswith("package://"):
+        pkg, _, rest = uri[len("package://"):].partition("/")
+        bases = _package_roots(pkg, upath, dirs)
+    elif uri.startswith("file://"):
+        bases, rest = [Path("/")], uri[len("file://"):]
+    elif Path(uri).is_absolute():
+        bases = [Path("/")]
+    else:
+        bases = ([upath.resolve().parent] if upath is not None else []) + dirs
+    for base in bases:
+        if (base / rest).is_file():
+            return (base / rest).resolve()
+    searched = ", ".join(str(b) for b in bases) or "no folder (no package_dirs)"
+    hint = " (package_dirs or ROS_PACKAGE_PATH add folders)" if uri.startswith("package:") else ""
+    raise ValueError(f"mesh {uri!r} could not be found; searched: {searched}{hint}")
+
+
+def _resolve_meshes(xml: str, urdf_path: Path | None, package_dirs: Sequence[str]) -> str:
+    """Rewrite every ``<mesh filename>`` to the absolute path it names (or ValueError)."""
+    from lxml import etree
+
+    root = etree.fromstring(xml.encode("utf-8"))
+    changed = False
+    for mesh in root.iter("mesh"):
+        uri = mesh.get("filename")
+        if not uri:
+            continue
+        path = str(resolve_package_uri(uri, urdf_path, package_dirs))
+        if path != uri:
+            mesh.set("filename", path)
+            changed = True
+    return etree.tostring(root, encoding="unicode") if changed else xml
+
+
+def expand_xacro(
+    path: str | os.PathLike,
+    args: Mapping[str, object] | None = None,
+    package_dirs: Sequence[str] = (),
+) -> str:
+    """The URDF text of the xacro file ``path`` expanded in-process with ``args`` (xacro
+    ``<xacro:arg>`` values; numbers and booleans are passed as text). ``$(find NAME)``
+    gives the package folder of :func:`resolve_package_uri`. ValueError naming the file
+    (and the line, when xacro reports one) on any xacro error (docs/design.md §1c).
+    """
+    import xml.parsers.expat
+
+    import xacro
+    from xacro import substitution_args as subst
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"xacro file not found: {str(path)!r}")
+    mappings = {str(k): _xacro_text(v) for k, v in (args or {}).items()}
+
+    def find(pkg: str) -> str:
+        roots = _package_roots(pkg, path, [Path(d) for d in package_dirs])
+        for r in roots:
+            if r.is_dir():
+                return str(r.resolve())
+        raise ValueError(f"$(find {pkg}): no package folder {pkg!r}; searched: "
+                         + ", ".join(str(r) for r in roots))
+
+    saved = subst._eval_find, subst._eval_dict.get("find")
+    subst._eval_find = subst._eval_dict["find"] = find
+    try:
+        xacro.init_stacks(str(path.resolve()))
+        doc = xacro.parse(None, str(path.resolve()))
+        xacro.process_doc(doc, mappings=mappings)
+    except xml.parsers.expat.ExpatError as exc:
+        where = (xacro.filestack or [None])[-1] or str(path)
+        raise ValueError(f"xacro could not parse {where}: {exc}") from None
+    except Exception as exc:  # XacroException, NameError, ValueError ... from xacro
+        where = (xacro.filestack or [None])[-1] or str(path)
+        msg = " ".join(str(exc).split()) or repr(exc)
+        raise ValueError(f"xacro could not expand {where}: {msg}") from None
+    finally:
+        subst._eval_find, subst._eval_dict["find"] = saved
+    return doc.toxml()
+
+
+def _xacro_text(value: object) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float, str)):
+        return str(value)
+    raise ValueError(f"xacro argument values must be strings, numbers or booleans, got {value!r}")
+
+
+def _lock_values(model: pin.Model, lock: Mapping[str, float], where: str) -> dict[str, float]:
+    """Check ``lock`` (joint name -> value, rad or m) against ``model``: every joint
+    exists, has one coordinate, and its value is finite and within its limits."""
+    out: dict[str, float] = {}
+    for name, value in lock.items():
+        if not model.existJointName(name) or model.getJointId(name) >= model.njoints:
+            movable = list(model.names)[1:]
+            raise ValueError(f"cannot lock joint {name!r}: {where} has no such joint "
+                             f"(joints: {movable})")
+        jid = model.getJointId(name)
+        idx = model.joints[jid].idx_q
+        if model.joints[jid].nq != 1:
+            raise ValueError(f"cannot lock joint {name!r} of {where}: not a one-coordinate joint")
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"locked joint {name!r}: expected a number, got {value!r}") from None
+        lo, hi = float(model.lowerPositionLimit[idx]), float(model.upperPositionLimit[idx])
+        if not math.isfinite(v) or not lo - 1e-9 <= v <= hi + 1e-9:
+            raise ValueError(f"locked joint {name!r} = {v:g} is outside its limits "
+                             f"[{lo:g}, {hi:g}] of {where}")
+        out[name] = v
+    return out
+
+
+def _reduce(
+    full: pin.Model, geoms: list[pin.GeometryModel], q0: np.ndarray, locked: Sequence[str]
+) -> tuple[pin.Model, list[pin.GeometryModel], np.ndarray]:
+    """Lock the joints ``locked`` of ``full`` at ``q0`` (``pin.buildReducedModel``);
+    returns the reduced model, geometry models and the kept joints' part of ``q0``."""
+    ids = sorted(full.getJointId(n) for n in locked)
+    if not ids:
+        return full, geoms, np.asarray(q0, dtype=float).copy()
+    model, reduced = pin.buildReducedModel(full, geoms, ids, q0)
+    keep = [n for j, n in enumerate(full.names) if j > 0 and j not in ids]
+    q_ref = np.array([q0[full.joints[full.getJointId(n)].idx_q] for n in keep], dtype=float)
+    return model, list(reduced), q_ref
+
+
 @dataclass(eq=False)
 class Arm:
     """A fixed-base arm: Pinocchio model, collision and visual geometry, joint limits.
@@ -172,6 +339,8 @@ class Arm:
     q_reference: np.ndarray | None = None
     #: joints that are ``continuous`` in the URDF, planned as revolute in [−π, π] rad
     continuous_joints: tuple[str, ...] = ()
+    #: joints locked out of the model: name -> value (rad or m), as reported in result.json
+    locked_joints: dict[str, float] = field(default_factory=dict)
     data: pin.Data = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -199,33 +368,47 @@ class Arm:
         cls,
         path_or_xml: str | os.PathLike,
         *,
-        package_dirs: Sequence[str] | None = None,
+        package_dirs: Sequence[str | os.PathLike] | None = None,
         srdf_path: str | os.PathLike | None = None,
         name: str | None = None,
         strict_srdf: bool = True,
+        xacro_args: Mapping[str, object] | None = None,
+        lock: Mapping[str, float] | None = None,
     ) -> Arm:
-        """Load an arm from a URDF file path or an XML string.
+        """Load an arm from a URDF or xacro file path, or a URDF XML string (docs/design.md §1c).
+
+        A path ending in ``.xacro`` is expanded in-process with ``xacro_args`` (its
+        ``<xacro:arg>`` values). Every ``<mesh filename>`` is resolved before Pinocchio
+        sees it (:func:`resolve_package_uri`): ``package://NAME/…`` in ``package_dirs``,
+        an ancestor folder of the file named ``NAME``, or ``ROS_PACKAGE_PATH``; a missing
+        mesh is a ValueError naming the URI and the folders searched.
 
         ``continuous`` joints are planned as revolute joints in [−π, π] rad
         (:attr:`continuous_joints` lists them); a URDF with a ``floating`` joint is refused.
         ``strict_srdf=False`` ignores SRDF pairs naming links the URDF lacks (as Pinocchio
         does) instead of refusing the SRDF: used for the data example-robot-data ships.
 
-        ``package_dirs`` are searched for ``package://`` meshes. With ``srdf_path``
-        the collision model gets every pair of its geometries, minus the SRDF's
-        ``disable_collisions`` pairs (list adjacent links there too, as MoveIt SRDFs
-        do); the checker then uses exactly these self-collision pairs. Without it
-        there are no pairs and the checker uses non-adjacent links.
+        With ``srdf_path`` the collision model gets every pair of its geometries, minus the
+        SRDF's ``disable_collisions`` pairs (list adjacent links there too, as MoveIt SRDFs
+        do); the checker then uses exactly these self-collision pairs. Without it there
+        are no pairs and the checker uses non-adjacent links.
+
+        ``lock`` maps joint names to values (rad or m, within the joint's limits): those
+        joints are removed from the model, fixed at these values (``pin.buildReducedModel``)
+        and listed in :attr:`locked_joints`.
         """
         xml, path = _read_urdf_text(path_or_xml)
+        dirs = [str(d) for d in (package_dirs or [])]
+        if path is not None and path.suffix == ".xacro":
+            xml = expand_xacro(path, xacro_args, dirs)
+        elif xacro_args:
+            raise ValueError("xacro_args given, but the URDF is not a .xacro file")
         where = str(path) if path is not None else "the URDF string"
         _validate_urdf(xml, where)
         if _has_floating_joint(xml):
             raise ValueError(f"URDF in {where} has a floating joint: a floating base is not an arm")
         xml, continuous = _revolute_for_continuous(xml)
-        dirs = list(package_dirs or [])
-        if path is not None:
-            dirs.append(str(path.parent))
+        xml = _resolve_meshes(xml, path, dirs)
         try:
             model = pin.buildModelFromXML(xml)
             collision = pin.buildGeomFromUrdfString(
@@ -245,6 +428,13 @@ class Arm:
                 pin.removeCollisionPairs(model, collision, srdf_path)
             except (RuntimeError, ValueError) as exc:
                 raise ValueError(f"Pinocchio could not read SRDF {srdf_path!r}: {exc}") from None
+        locked = _lock_values(model, lock or {}, where)
+        q0 = pin.neutral(model)
+        for joint, value in locked.items():
+            q0[model.joints[model.getJointId(joint)].idx_q] = value
+        q_ref = None
+        if locked:
+            model, (collision, visual), _ = _reduce(model, [collision, visual], q0, list(locked))
         return cls(
             model=model,
             collision_model=collision,
@@ -252,15 +442,21 @@ class Arm:
             name=name or model.name or "arm",
             srdf_path=srdf_path,
             urdf_xml=xml,
-            continuous_joints=continuous,
+            q_reference=q_ref,
+            continuous_joints=tuple(n for n in continuous if model.existJointName(n)),
+            locked_joints=locked,
         )
 
     @classmethod
-    def from_example_robot_data(cls, name: str, *, lock: Sequence[str] | None = None) -> Arm:
+    def from_example_robot_data(
+        cls, name: str, *, lock: Sequence[str] | Mapping[str, float] | None = None
+    ) -> Arm:
         """Load ``name`` from example-robot-data (no download: the data ship with the package).
 
         Joints whose names contain a :data:`GRIPPER_KEYWORDS` entry are locked at
-        the robot's reference posture (e.g. Panda → 7 joints), plus any in ``lock``.
+        the robot's reference posture (e.g. Panda → 7 joints), plus any in ``lock``:
+        joint names (locked at the reference posture) or a mapping name -> value (rad or
+        m, within the limits). :attr:`locked_joints` gives every locked joint's value.
         """
         from example_robot_data import robots_loader
 
@@ -290,24 +486,26 @@ class Arm:
             if loader.ref_posture in full.referenceConfigurations:
                 q0 = np.array(full.referenceConfigurations[loader.ref_posture], dtype=float)
         names = list(full.names)
+        if lock is None:
+            lock_at: dict[str, float | None] = {}
+        elif isinstance(lock, Mapping):
+            lock_at = dict(lock)
+        else:  # names only: locked at the reference posture
+            lock_at = dict.fromkeys([lock] if isinstance(lock, str) else lock)
+        missing = set(lock_at) - set(names[1:])
+        if missing:
+            raise ValueError(f"cannot lock unknown joints {sorted(missing)} of {name!r}")
+        given = _lock_values(full, {k: v for k, v in lock_at.items() if v is not None}, name)
+        for joint, value in given.items():
+            q0[full.joints[full.getJointId(joint)].idx_q] = value
         to_lock = [
-            j
-            for j in range(1, full.njoints)
-            if any(k in names[j].lower() for k in GRIPPER_KEYWORDS) or (lock and names[j] in lock)
+            n for n in names[1:]
+            if any(k in n.lower() for k in GRIPPER_KEYWORDS) or n in lock_at
         ]
-        if lock:
-            missing = set(lock) - set(names)
-            if missing:
-                raise ValueError(f"cannot lock unknown joints {sorted(missing)} of {name!r}")
-        if to_lock:
-            model, (collision, visual) = pin.buildReducedModel(
-                full, [base.collision_model, base.visual_model], to_lock, q0
-            )
-            keep = [names[j] for j in range(1, full.njoints) if j not in to_lock]
-            q_ref = np.array([q0[full.joints[full.getJointId(n)].idx_q] for n in keep])
-        else:
-            model, collision, visual = full, base.collision_model, base.visual_model
-            q_ref = q0
+        model, (collision, visual), q_ref = _reduce(
+            full, [base.collision_model, base.visual_model], q0, to_lock
+        )
+        locked = {n: float(q0[full.joints[full.getJointId(n)].idx_q]) for n in to_lock}
         model.name = name
         return cls(
             model=model,
@@ -317,6 +515,7 @@ class Arm:
             srdf_path=base.srdf_path,
             q_reference=q_ref,
             continuous_joints=tuple(n for n in base.continuous_joints if model.existJointName(n)),
+            locked_joints=locked,
         )
 
     # --------------------------------------------------------------- properties
@@ -343,8 +542,8 @@ class Arm:
     def fingerprint(self) -> str:
         """SHA-256 of everything that determines dynamics and collision geometry.
 
-        Joint placements, types and limits (position, velocity, effort), link inertias,
-        gravity, and the
+        Joint placements, types, axes and limits (position, velocity, effort), link
+        inertias, gravity, and the
         collision objects (names, parents, placements, geometry type and size, mesh
         scale, and the SHA-256 of each mesh file's bytes — not its path, so moving
         the files keeps the fingerprint), and the collision pairs.
@@ -354,6 +553,8 @@ class Arm:
         h.update(repr((m.nq, m.nv, list(m.names), list(m.parents))).encode())
         for j in range(1, m.njoints):
             h.update(m.joints[j].shortname().encode())
+            if "Unaligned" in m.joints[j].shortname():  # the axis is not in the name
+                h.update(np.asarray(m.joints[j].extract().axis, dtype=float).tobytes())
             h.update(np.asarray(m.jointPlacements[j].homogeneous).tobytes())
             ine = m.inertias[j]
             h.update(np.array([ine.mass, *ine.lever, *ine.inertia.ravel()]).tobytes())

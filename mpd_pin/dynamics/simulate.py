@@ -194,7 +194,8 @@ def simulate_edge(drive: Drive, q0, q1, duration: float = 1.0, dt: float = 5e-3)
 
     Starts at rest holding the arm (i = G(q0)/(n Kt)). Joints whose electrical pole is
     stiff at this step (dt·R/L > ``STIFF_LIMIT``) get the exponential current update of
-    :class:`~mpd_pin.dynamics.current.CurrentStep`, so any L/R works at any dt. Raises ValueError for NaN or
+    :class:`~mpd_pin.dynamics.current.CurrentStep`, so any L/R works at any dt. Raises
+    ValueError for NaN or
     wrong-length configurations, T/dt not whole, or a diverging integration.
     """
     q0, q1 = _check_edge(drive, q0, q1)

@@ -100,7 +100,7 @@ def main() -> None:
 
 def stiff_motors(K: int) -> None:
     """UR5: sized motors at dt = 5 ms vs the servo preset with RK4 at dt = 1 ms."""
-    from mpd_pin.dynamics.simulate import current_model
+    from mpd_pin.dynamics.current import current_model
 
     arm = mp.Arm.from_example_robot_data("ur5")
     rng = np.random.default_rng(2)

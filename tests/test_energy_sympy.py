@@ -415,7 +415,7 @@ def test_unknown_example_robot_data_name():
 def test_stiff_servo_runs_at_5ms(servo_drive):
     """The servo preset (L/R = 0.5 ms, dt·R/L = 10 at 5 ms) is integrated at dt = 5 ms, and the
     paper motor (L/R = 0.5 s) stays on classical RK4."""
-    from mpd_pin.dynamics.simulate import current_model
+    from mpd_pin.dynamics.current import current_model
 
     assert servo_drive.L[0] / servo_drive.R[0] == pytest.approx(5e-4)
     assert current_model(servo_drive, 5e-3)["name"] == "exponential"
@@ -435,7 +435,7 @@ def test_stiff_current_matches_resolved_rk4(tau_e):
     2.6). One joint keeps a slow motor, so the step is partitioned (RK4 current beside
     exponential ones).
     Measured: ≤ 3.6e-4 relative (joint 2), ≤ 1e-4 on the others."""
-    from mpd_pin.dynamics.simulate import current_model
+    from mpd_pin.dynamics.current import current_model
 
     arm = mp.builtin_arm("planar_3link")
     motors = [mp.DCMotor(R=2.0, L=2.0 * tau_e, Kt=0.03, Ke=0.03, B=1e-6, J=5e-6,

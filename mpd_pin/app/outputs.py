@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from ..dynamics.simulate import current_model
+from ..dynamics.current import current_model
 from ..planning.roadmap import Roadmap
 from .plan import PlanResult, Setup, path_length
 from .results import to_jsonable, write_json

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from .current import current_step
 from .motor import Drive
 
 __all__ = [
@@ -44,10 +45,6 @@ __all__ = [
     "step_count",
     "EdgeOutcomes",
     "edge_outcomes",
-    "STIFF_LIMIT",
-    "CurrentStep",
-    "current_step",
-    "current_model",
 ]
 
 
@@ -89,99 +86,6 @@ def step_count(duration: float, dt: float) -> int:
 #: Largest reference table (time samples × edges × joints) one batch holds: 2²¹ floats
 #: (16 MB) per array; the feed-forward needs about eight such arrays at once.
 _BATCH_BUDGET = 1 << 21
-
-#: A joint whose electrical pole satisfies dt·R/L above this gets the exponential current
-#: update of :class:`CurrentStep`; at or below it, classical RK4 (docs/design.md §3e). 2.5 is
-#: just inside RK4's real-axis stability limit (2.785), so every case classical RK4 could
-#: integrate before is integrated exactly as before; measured on a planar 3-link arm with a
-#: 100:1 servo, classical RK4 at dt·R/L = 1–2.4 was closer to a resolved reference (≤ 7e-5
-#: relative in E⁺) than the exponential update (≤ 3.6e-4).
-STIFF_LIMIT = 2.5
-
-
-@dataclass(frozen=True)
-class CurrentStep:
-    """Coefficients of the exponential current update for one step size ``h`` (s).
-
-    The current equation is linear in i: di/dt = λ i + N with λ = −R/L (1/s) and
-    forcing N = (V − n Ke q̇)/L (A/s), where V depends on (t, q, q̇) only. Joints with
-    h·R/L ≤ :data:`STIFF_LIMIT` (``stiff`` False) use classical RK4 unchanged. For the
-    others, every RK4 stage first gets its (q, q̇) from the classical stage formula,
-    then its current from the variation-of-constants formula with N interpolated
-    linearly between the step start and the stage (docs/design.md §3e):
-
-        i(t + c h) = e^{c z} i(t) + c h [φ₁(c z) N(t) + φ₂(c z) (N_c − N(t))],
-        φ₁(z) = (e^z − 1)/z,  φ₂(z) = (e^z − 1 − z)/z²,  z = λ h,
-
-    and the step's final current the same with c = 1 and N at the final (q, q̇). It is
-    exact for a constant or linear forcing at any h·R/L, and as L/R → 0 each stage's
-    current tends to the quasi-static (V − n Ke q̇)/R at that stage's own state, with
-    the first-order lag −(L/R)·dN/dt·(L/R)… carried by the slope term.
-    """
-
-    stiff: np.ndarray  # (nq,) bool
-    rate: np.ndarray  # R/L of the stiff joints (1/s), shape (s,)
-    inv_L: np.ndarray  # 1/L of the stiff joints (1/H)
-    decay_half: np.ndarray  # e^{z/2}
-    decay: np.ndarray  # e^{z}
-    w0_half: np.ndarray  # (h/2)(φ₁ − φ₂) at z/2: weight of N(t)
-    wc_half: np.ndarray  # (h/2) φ₂ at z/2: weight of N at the stage
-    w0: np.ndarray
-    wc: np.ndarray
-
-    @property
-    def any(self) -> bool:
-        return bool(self.stiff.any())
-
-    def half(self, i0: np.ndarray, n0: np.ndarray, nc: np.ndarray) -> np.ndarray:
-        """Current at t + h/2 (A) from i(t), N(t) and N at the stage."""
-        return self.decay_half * i0 + self.w0_half * n0 + self.wc_half * nc
-
-    def full(self, i0: np.ndarray, n0: np.ndarray, nc: np.ndarray) -> np.ndarray:
-        """Current at t + h (A) from i(t), N(t) and N at the stage (or the end state)."""
-        return self.decay * i0 + self.w0 * n0 + self.wc * nc
-
-
-def _phi(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """φ₁(z), φ₂(z) for z ≤ −STIFF_LIMIT/2 (no cancellation at such z)."""
-    ez = np.exp(z)
-    return (ez - 1.0) / z, (ez - 1.0 - z) / (z * z)
-
-
-def current_step(drive: Drive, h: float) -> CurrentStep:
-    """:class:`CurrentStep` coefficients of ``drive`` at RK4 step ``h`` (s)."""
-    rate_all = np.asarray(drive.R / drive.L, dtype=float)
-    stiff = h * rate_all > STIFF_LIMIT
-    rate = rate_all[stiff]
-    z = -rate * h
-    p1h, p2h = _phi(0.5 * z)
-    p1, p2 = _phi(z)
-    return CurrentStep(
-        stiff=stiff,
-        rate=rate,
-        inv_L=1.0 / np.asarray(drive.L, dtype=float)[stiff],
-        decay_half=np.exp(0.5 * z),
-        decay=np.exp(z),
-        w0_half=0.5 * h * (p1h - p2h),
-        wc_half=0.5 * h * p2h,
-        w0=h * (p1 - p2),
-        wc=h * p2,
-    )
-
-
-def current_model(drive: Drive, dt: float) -> dict:
-    """Which current integration runs at step ``dt`` (s): recorded in result files."""
-    cs = current_step(drive, float(dt))
-    stiff = np.flatnonzero(cs.stiff).tolist()
-    return {
-        "name": "rk4" if not stiff else (
-            "exponential" if len(stiff) == drive.nq else "rk4+exponential"
-        ),
-        "stiff_joints": stiff,
-        "stiff_limit_dt_R_over_L": STIFF_LIMIT,
-        "electrical_time_constants_s": (drive.L / drive.R).tolist(),
-    }
-
 
 # ------------------------------------------------------------------------ feed-forward
 def _feedforward_single(drive: Drive, q0: np.ndarray, dq: np.ndarray, tau: np.ndarray, T: float):
@@ -289,8 +193,9 @@ def simulate_edge(drive: Drive, q0, q1, duration: float = 1.0, dt: float = 5e-3)
     """Simulate the move q0 → q1 (rad) over ``duration`` s, RK4 step ``dt`` s (docs/design.md §3).
 
     Starts at rest holding the arm (i = G(q0)/(n Kt)). Joints whose electrical pole is
-    stiff at this step (dt·R/L > :data:`STIFF_LIMIT`) get the exponential current update
-    of :class:`CurrentStep`, so any L/R works at any dt. Raises ValueError for NaN or
+    stiff at this step (dt·R/L > ``STIFF_LIMIT``) get the exponential current update of
+    :class:`~mpd_pin.dynamics.current.CurrentStep`, so any L/R works at any dt. Raises
+    ValueError for NaN or
     wrong-length configurations, T/dt not whole, or a diverging integration.
     """
     q0, q1 = _check_edge(drive, q0, q1)
@@ -422,6 +327,26 @@ def _pool(drive: Drive, threads: int) -> pin.ModelPool:
     return cached[1]
 
 
+def _reference_table(drive: Drive, Q0, DQ, half, T, s, sd, pool, threads: int):
+    """W = V_ff + Kp q_ref + Kd q̇_ref on the half-step grid, (nt, K, nq) V, and the
+    initial (holding) current i0 = G(q⁰)/(n Kt), (K, nq) A."""
+    K, nq = Q0.shape
+    kp, kd = drive.kp_vec, drive.kd_vec
+    if drive.feedforward:
+        W, i_ff = _feedforward_batch(drive, Q0, DQ, half, T)  # W holds V_ff: (nt, K, nq)
+        i0 = i_ff[0].copy()  # τ_ff(0) = G(q0): the holding current
+        del i_ff
+    else:
+        W = np.zeros((half.shape[0], K, nq))
+        G = pin.rneaInParallel(
+            threads, pool, Q0.T, np.zeros((nq, K), order="F"), np.zeros((nq, K), order="F")
+        )
+        i0 = np.ascontiguousarray(np.asarray(G).T) / drive.torque_per_amp
+    W += kp * (Q0[None] + DQ[None] * s)
+    W += kd * (DQ[None] * sd)
+    return W, i0
+
+
 @np.errstate(over="ignore", invalid="ignore")  # divergence is detected and reported below
 def _integrate_batch(
     drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, N: np.ndarray, h: float,
@@ -449,18 +374,7 @@ def _integrate_batch(
     s, sd, _, _ = (_per_edge(a) for a in quintic(half, T))
     kp, kd, vmax = drive.kp_vec, drive.kd_vec, drive.v_max
     pool = _pool(drive, threads)
-    if drive.feedforward:
-        W, i_ff = _feedforward_batch(drive, Q0, DQ, half, T)  # W holds V_ff: (nt, K, nq)
-        i0 = i_ff[0].copy()  # τ_ff(0) = G(q0): the holding current
-        del i_ff
-    else:
-        W = np.zeros((half.shape[0], K, nq))
-        G = pin.rneaInParallel(
-            threads, pool, Q0.T, np.zeros((nq, K), order="F"), np.zeros((nq, K), order="F")
-        )
-        i0 = np.ascontiguousarray(np.asarray(G).T) / drive.torque_per_amp
-    W += kp * (Q0[None] + DQ[None] * s)
-    W += kd * (DQ[None] * sd)
+    W, i0 = _reference_table(drive, Q0, DQ, half, T, s, sd, pool, threads)
     invL = 1.0 / drive.L
     r_l, ke_l, ktn, damp = drive.R * invL, drive.emf_per_rad_s * invL, drive.torque_per_amp, (
         drive.damping

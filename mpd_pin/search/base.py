@@ -25,12 +25,19 @@ from bisect import bisect_left
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
+import numpy as np
+
 from mpd_pin.errors import MpdPinError
 from mpd_pin.search.graph import Graph
 
 __all__ = ["Heuristic", "Path", "Planner", "SearchInvariantError", "SearchStats"]
 
 Heuristic = Callable[[int, int], float]
+
+
+def _plain(x):
+    """numpy scalars as Python ints/floats (``update_edge`` refuses numpy floats as ids)."""
+    return x.item() if hasattr(x, "item") else x
 
 
 class SearchInvariantError(MpdPinError, RuntimeError):
@@ -139,8 +146,15 @@ class Planner(ABC):
     def move_start(self, node: int) -> None:
         """The robot advanced: plan from ``node`` from now on."""
 
-    def update_edges(self, changes: Iterable[tuple[int, int, float]]) -> None:
-        """Apply several ``(u, v, cost)`` changes (one batch for D* Lite's ``km``)."""
+    def update_edges(self, changes: Iterable[tuple[int, int, float]] | tuple) -> None:
+        """Apply several ``(u, v, cost)`` changes as one batch (docs/design.md §5f).
+
+        ``changes``: an iterable of triples, or a tuple of three equal-length numpy arrays
+        ``(u, v, cost)``. The incremental planners override this with one vectorised
+        look-up and one rhs repair per changed tail; here it is ``update_edge`` in turn.
+        """
+        if isinstance(changes, tuple) and len(changes) == 3 and isinstance(changes[0], np.ndarray):
+            changes = zip(*(list(map(_plain, a)) for a in changes), strict=True)
         for u, v, c in changes:
             self.update_edge(u, v, c)
 

@@ -38,7 +38,10 @@ Implementation notes (pitfalls of public implementations, docs/design.md §5):
 from __future__ import annotations
 
 import math
+import operator
 from heapq import heappop, heappush, heapreplace
+
+import numpy as np
 
 from mpd_pin.errors import NoPathError
 from mpd_pin.search.base import Heuristic, Path, Planner, SearchInvariantError
@@ -268,6 +271,59 @@ class _DStarLiteCore(Planner):
             return  # not the support of rhs(u) and not better: nothing changes
         n_q = self._update_vertex(u)
         self._add_work(0, n_ev + 1, n_q)
+
+    def update_edges(self, changes) -> None:
+        """Set the costs of many edges, then repair each changed tail's rhs once
+        (docs/design.md §5f). ``changes``: an iterable of ``(u, v, cost)`` triples, or a
+        tuple of three numpy arrays ``(u, v, cost)``. Equivalent to calling :meth:`update_edge`
+        for each in turn (same values; among exactly equal-cost alternatives the stored
+        pointer may differ), but the edge look-up and validation are vectorised and a tail
+        with several changed edges is queued once. All costs are validated before any
+        changes."""
+        if isinstance(changes, tuple) and len(changes) == 3 and isinstance(changes[0], np.ndarray):
+            us, vs, cs = (np.asarray(a).tolist() for a in changes)
+        else:
+            triples = list(changes)
+            us = [operator.index(t[0]) for t in triples]
+            vs = [operator.index(t[1]) for t in triples]
+            cs = [t[2] for t in triples]
+        if not us:
+            return
+        self._sync_start()
+        ks = self.graph.set_costs(us, vs, cs)
+        scost, sdst = self._succ.cost, self._succ.nbr
+        g, gh, rhs, rh, ptr = self._g, self._gh, self._rhs, self._rh, self._ptr
+        goal = self.goal
+        # per tail: does its support change (full recompute), else the best improvement
+        best: dict[int, tuple[float, int, int] | None] = {}
+        for u, k in zip(us, ks, strict=True):
+            if u == goal:
+                continue
+            v = sdst[k]
+            cur = best.get(u, 0)
+            if cur is None:
+                continue  # already marked for a full recompute
+            if ptr[u] == v:
+                best[u] = None
+                continue
+            t = scost[k] + g[v]
+            nh = gh[v] + 1
+            if cur == 0 or t < cur[0] or (t == cur[0] and nh < cur[1]):
+                best[u] = (t, nh, v)
+        n_ev = n_q = 0
+        for u, cand in best.items():
+            if cand is None:
+                n_ev += self._recompute_rhs(u)
+            else:
+                t, nh, v = cand
+                r = rhs[u]
+                if not (t < r or (t == r and nh < rh[u])):
+                    continue
+                rhs[u] = t
+                rh[u] = nh
+                ptr[u] = v
+            n_q += self._update_vertex(u)
+        self._add_work(0, n_ev + len(us), n_q)
 
     def move_start(self, node: int) -> None:
         """The robot is now at ``node``; ``km`` is updated before the next repair."""

@@ -27,6 +27,9 @@ import numpy as np
 
 __all__ = ["Adjacency", "Graph"]
 
+#: Batches up to this size are looked up edge by edge (bisect), larger ones with numpy.
+_SMALL_BATCH = 48
+
 
 class Adjacency(NamedTuple):
     """Read-only view of one CSR direction of a :class:`Graph`, for planners' hot loops.
@@ -86,6 +89,7 @@ class Graph:
         "_psrc",
         "_pcost",
         "_e2p",
+        "_keys",
     )
 
     def __init__(self, num_nodes: int, edges: Iterable[tuple[int, int, float]] = ()) -> None:
@@ -199,6 +203,7 @@ class Graph:
         self._psrc = self._pred_src_arr.tolist()
         self._pcost = c[porder].tolist()
         self._e2p = e2p.tolist()
+        self._keys = _readonly(s * n + d) if m else np.zeros(0, dtype=np.int64)
 
     # ------------------------------------------------------------------ queries
     @property
@@ -282,6 +287,62 @@ class Graph:
         self._scost[k] = c
         self._pcost[self._e2p[k]] = c
         return k
+
+    def edge_indices(self, u, v) -> list[int]:
+        """Indices in :attr:`successor_view` of the edges ``u[i] -> v[i]`` (sequences or
+        arrays of node ids; KeyError naming the first missing edge, ValueError for a node
+        id out of range). Small batches bisect the lists, large ones use numpy."""
+        n = self._n
+        if len(u) != len(v):
+            raise ValueError(f"u and v must have the same length, got {len(u)} and {len(v)}")
+        if len(u) <= _SMALL_BATCH:
+            ul = u.tolist() if isinstance(u, np.ndarray) else list(u)
+            vl = v.tolist() if isinstance(v, np.ndarray) else list(v)
+            sptr, sdst = self._sptr, self._sdst
+            out = []
+            for a, b in zip(ul, vl, strict=True):
+                if not (0 <= a < n and 0 <= b < n):
+                    raise ValueError(f"edge {a} -> {b}: node out of range [0, {n - 1}]")
+                lo, hi = sptr[a], sptr[a + 1]
+                k = bisect_left(sdst, b, lo, hi)
+                if k == hi or sdst[k] != b:
+                    raise KeyError(f"no edge {a} -> {b} in the graph")
+                out.append(k)
+            return out
+        ua = np.asarray(u, dtype=np.int64).ravel()
+        va = np.asarray(v, dtype=np.int64).ravel()
+        bad = (ua < 0) | (ua >= n) | (va < 0) | (va >= n)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"edge {int(ua[k])} -> {int(va[k])}: node out of range [0, {n - 1}]")
+        # edges are sorted by (tail, head), so tail * n + head is sorted too
+        keys = self._keys
+        want = ua * n + va
+        k = np.searchsorted(keys, want)
+        k_clip = np.minimum(k, max(keys.size - 1, 0))
+        miss = (k >= keys.size) | (keys[k_clip] != want) if keys.size else np.ones(ua.size, bool)
+        if miss.any():
+            j = int(np.flatnonzero(miss)[0])
+            raise KeyError(f"no edge {int(ua[j])} -> {int(va[j])} in the graph")
+        return k.tolist()
+
+    def set_costs(self, u, v, cost) -> list[int]:
+        """Change the costs of the existing edges ``u[i] -> v[i]`` at once (``math.inf`` =
+        blocked; NaN or negative refused before anything changes). Returns their indices in
+        :attr:`successor_view`. Planners are not notified: use ``planner.update_edges``."""
+        ks = self.edge_indices(u, v)
+        cl = cost.tolist() if isinstance(cost, np.ndarray) else [float(c) for c in cost]
+        if len(cl) != len(ks):
+            raise ValueError(f"{len(ks)} edges but {len(cl)} costs")
+        for j, c in enumerate(cl):
+            if not c >= 0.0:  # NaN or negative
+                _check_cost(c, f"edge {u[j]} -> {v[j]}")
+        scost, pcost, e2p = self._scost, self._pcost, self._e2p
+        for kk, cc in zip(ks, cl, strict=True):
+            cc += 0.0  # -0.0 -> 0.0
+            scost[kk] = cc
+            pcost[e2p[kk]] = cc
+        return ks
 
     def to_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Current ``(src, dst, cost)`` arrays, one row per distinct edge, sorted by tail."""

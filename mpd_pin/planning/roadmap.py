@@ -28,7 +28,7 @@ import hashlib
 import json
 import math
 import os
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -209,6 +209,21 @@ class Roadmap:
         ids = self.edge_ids(path)
         return self.energy[ids].sum(axis=0) if ids.size else np.zeros(self.nodes.shape[1])
 
+    @property
+    def evaluated(self) -> np.ndarray:
+        """(E,) bool: edges whose energy is known (NaN rows are not yet evaluated)."""
+        return ~np.isnan(np.asarray(self.energy, float)).any(axis=1)
+
+    def without_edges(self, drop: np.ndarray) -> Roadmap:
+        """A copy without the edges where ``drop`` (E,) is True (refused ones, before a
+        save); the nodes, key, counts and timings are kept."""
+        keep = ~np.asarray(drop, dtype=bool)
+        return replace(
+            self, src=self.src[keep], dst=self.dst[keep], durations=self.durations[keep],
+            energy=np.array(self.energy[keep], dtype=float), edge_counts=dict(self.edge_counts),
+            timings=dict(self.timings),
+        )
+
     # ------------------------------------------------------------------ files
     @staticmethod
     def key_for(
@@ -375,8 +390,14 @@ def _validate_arrays(arrays: dict[str, np.ndarray], path: Path, nq: int | None) 
         raise bad("self-loop edges")
     if durations.dtype.kind != "f" or not np.all(np.isfinite(durations) & (durations > 0)):
         raise bad("durations must be finite and > 0 (s)")
-    if energy.dtype.kind != "f" or not np.all(np.isfinite(energy) & (energy >= 0)):
-        raise bad("energies must be finite and >= 0 (J)")
+    # a row of NaN is an edge not yet evaluated (lazy roadmaps, docs/design.md §4f);
+    # anything else must be a finite E⁺ >= 0 in every joint
+    if energy.dtype.kind != "f":
+        raise bad("energies must be floats (J)")
+    unevaluated = np.isnan(energy).all(axis=1) if E else np.zeros(0, bool)
+    known = energy[~unevaluated]
+    if not np.all(np.isfinite(known) & (known >= 0)):
+        raise bad("energies must be finite and >= 0 (J), or NaN in every joint (not evaluated)")
     counts = arrays["edge_counts"]
     if counts.dtype.kind not in "iu" or counts.shape != (len(EDGE_COUNTS),) or np.any(counts < 0):
         raise bad(f"edge_counts must be {len(EDGE_COUNTS)} non-negative integers")
@@ -495,6 +516,60 @@ def _free_pairs(checker, nodes: np.ndarray, pairs: np.ndarray, resolution: float
     return pairs[np.asarray(free, dtype=bool)]
 
 
+def feasibility(out, options: RoadmapOptions, model) -> tuple[np.ndarray, np.ndarray]:
+    """The feasibility rules of docs/design.md §4e on simulated edges (``out``: the
+    :class:`~mpd_pin.dynamics.simulate.EdgeOutcomes` of K edges): ``(over, missed)``, (K,)
+    bool each — the motor torque exceeded a URDF effort limit (b), the motion ended farther
+    than ``arrival_tolerance`` from its end node (c). The velocity rule (a) is the timing."""
+    K = np.asarray(out.energy).shape[0]
+    over = np.zeros(K, dtype=bool)
+    if options.effort_limits and K:
+        lim = np.asarray(model.effortLimit, dtype=float)
+        lim = np.where(np.isfinite(lim) & (lim > 0), lim, np.inf)
+        over = np.any(out.peak_torque > lim * (1.0 + 1e-12), axis=1)
+    missed = np.zeros(K, dtype=bool)
+    if K:
+        missed = np.max(np.abs(out.end_error), axis=1) > options.arrival_tolerance
+    return over, missed
+
+
+def evaluate_edges(
+    cost: EnergyCost, roadmap: Roadmap, ids: np.ndarray, options: RoadmapOptions,
+    progress=None,
+) -> np.ndarray:
+    """Simulate the roadmap edges ``ids`` (one batch through ``cost.outcomes``) and write
+    the E⁺ per joint (J) of the feasible ones into ``roadmap.energy``; the refused ones
+    stay NaN and are counted in ``roadmap.edge_counts``. Returns the (len(ids),) bool mask
+    of the refused edges (docs/design.md §4e, §4g)."""
+    ids = np.asarray(ids, dtype=np.int64)
+    if ids.size == 0:
+        return np.zeros(0, dtype=bool)
+    model = cost.drive.arm.model
+    nodes = roadmap.nodes
+    out = cost.outcomes(nodes[roadmap.src[ids]], nodes[roadmap.dst[ids]],
+                        roadmap.durations[ids], progress=progress)
+    over, missed = feasibility(out, options, model)
+    refused = over | missed
+    energy = np.asarray(out.energy, float)
+    roadmap.energy[ids[~refused]] = energy[~refused]
+    counts = roadmap.edge_counts
+    counts["refused_effort"] = counts.get("refused_effort", 0) + int(over.sum())
+    counts["refused_arrival"] = counts.get("refused_arrival", 0) + int((missed & ~over).sum())
+    return refused
+
+
+def _candidate_edges(nodes, pairs, options: RoadmapOptions, model):
+    """Both directions of every pair, timed within the velocity limits, not simulated
+    (energy NaN): src, dst, durations (s), energy (E, nq) and the counts."""
+    src = np.concatenate([pairs[:, 0], pairs[:, 1]]).astype(np.int64)
+    dst = np.concatenate([pairs[:, 1], pairs[:, 0]]).astype(np.int64)
+    durations, raised = options.timing(nodes[src], nodes[dst], model.velocityLimit)
+    energy = np.full((src.size, nodes.shape[1]), np.nan)
+    counts = {"lengthened_for_velocity": int(raised.sum()), "refused_effort": 0,
+              "refused_arrival": 0}
+    return src, dst, durations, energy, counts
+
+
 def _cost_edges(cost: EnergyCost, nodes, pairs, options: RoadmapOptions, tqdm, show_progress):
     """Costing: both directions of every pair, timed within the velocity limits, simulated,
     and kept only if feasible (docs/design.md §4e). Returns src, dst, durations (s),
@@ -509,14 +584,7 @@ def _cost_edges(cost: EnergyCost, nodes, pairs, options: RoadmapOptions, tqdm, s
         out = cost.outcomes(
             nodes[src], nodes[dst], durations, progress=lambda d: bar.update(d - bar.n)
         )
-    over = np.zeros(src.size, dtype=bool)
-    if options.effort_limits and src.size:
-        lim = np.asarray(model.effortLimit, dtype=float)
-        lim = np.where(np.isfinite(lim) & (lim > 0), lim, np.inf)
-        over = np.any(out.peak_torque > lim * (1.0 + 1e-12), axis=1)
-    missed = np.zeros(src.size, dtype=bool)
-    if src.size:
-        missed = np.max(np.abs(out.end_error), axis=1) > options.arrival_tolerance
+    over, missed = feasibility(out, options, model)
     keep = ~(over | missed)
     counts = {
         "lengthened_for_velocity": int(raised.sum()),
@@ -524,6 +592,25 @@ def _cost_edges(cost: EnergyCost, nodes, pairs, options: RoadmapOptions, tqdm, s
         "refused_arrival": int((missed & ~over).sum()),
     }
     return src[keep], dst[keep], durations[keep], np.asarray(out.energy, float)[keep], counts
+
+
+def _complete(cost: EnergyCost, roadmap: Roadmap, options: RoadmapOptions, tqdm,
+              show_progress: bool) -> Roadmap:
+    """Evaluate the NaN edges of a loaded roadmap and drop the refused ones (eager use of a
+    lazily built file)."""
+    import time
+
+    t0 = time.perf_counter()
+    todo = np.flatnonzero(~roadmap.evaluated)
+    with tqdm(total=todo.size, desc="edge energies", unit="edge", disable=not show_progress,
+              leave=False) as bar:
+        refused = evaluate_edges(cost, roadmap, todo, options,
+                                 progress=lambda d: bar.update(d - bar.n))
+    drop = np.zeros(roadmap.num_edges, dtype=bool)
+    drop[todo[refused]] = True
+    done = roadmap.without_edges(drop)
+    done.timings["edge_energies"] = time.perf_counter() - t0
+    return done
 
 
 def build_roadmap(
@@ -536,8 +623,14 @@ def build_roadmap(
     checker_fingerprint: str | None = None,
     cache: str | os.PathLike | None = None,
     show_progress: bool = True,
+    evaluate: bool = True,
 ) -> Roadmap:
     """Sample, connect, check and cost a roadmap; start is node 0, goal node 1.
+
+    ``evaluate=False`` stops before the costing: every collision-free directed edge is
+    kept, timed, with NaN energies, for lazy evaluation (docs/design.md §4g); such a
+    roadmap has the same key as the evaluated one. With ``evaluate=True`` a cached file
+    holding unevaluated edges has them simulated (refused ones dropped) and is saved again.
 
     ``checker`` is a validity checker (``arm``, ``is_free``, ``is_free_batch``,
     ``edges_free``, ``fingerprint``) for the known world; its arm must be the
@@ -559,7 +652,11 @@ def build_roadmap(
     if cache is not None:
         cache = npz_path(cache)
         if cache.exists():
-            return Roadmap.load(cache, expected_key=key, nq=arm.nq)
+            loaded = Roadmap.load(cache, expected_key=key, nq=arm.nq)
+            if evaluate and not loaded.evaluated.all():
+                loaded = _complete(cost, loaded, options, tqdm, show_progress)
+                loaded.save(cache)
+            return loaded
 
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
@@ -572,10 +669,16 @@ def build_roadmap(
     pairs = _free_pairs(checker, nodes, pairs, options.resolution)
     timings["edge_checks"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    src, dst, durations, energy, counts = _cost_edges(
-        cost, nodes, pairs, options, tqdm, show_progress
-    )
-    timings["edge_energies"] = time.perf_counter() - t0
+    if evaluate:
+        src, dst, durations, energy, counts = _cost_edges(
+            cost, nodes, pairs, options, tqdm, show_progress
+        )
+        timings["edge_energies"] = time.perf_counter() - t0
+    else:
+        src, dst, durations, energy, counts = _candidate_edges(
+            nodes, pairs, options, arm.model
+        )
+        timings["edge_timing"] = time.perf_counter() - t0
 
     roadmap = Roadmap(
         nodes=nodes,

@@ -1,0 +1,270 @@
+"""Lazy energy roadmaps: simulate only the edges the search needs (docs/design.md §4g).
+
+LazySP (Dellin & Srinivasa 2016) on MPD* Lite. Every collision-free directed edge
+enters the search graph at a lower bound of its E⁺ (:class:`~mpd_pin.dynamics.bound.
+EnergyBound`). The planner's current best path has its unevaluated edges simulated
+together (one batch through ``EnergyCost.outcomes``, the feasibility rules of
+docs/design.md §4e applied: a refused edge becomes ∞), their true costs enter through
+one ``update_edges`` call, MPD* Lite repairs, and so on until the best path consists of
+evaluated edges only. Its cost is then ≤ the bound-cost of every other path, which is ≤
+that path's true cost as long as the bound holds: the exact eager optimum.
+
+The bound is an estimate (tracking error), so every evaluated edge is checked against
+it. A violation (bound > true) is counted, its ratio recorded, and the bounds of all
+unevaluated edges are scaled by ``SAFETY`` × the smallest true/bound ratio seen so far,
+entered in one batch, before the search goes on: the loop's stopping test is then made
+against bounds below every ratio observed.
+
+:class:`LazyEdges` holds the evaluation state of one roadmap (shared by every search of
+a run: the energy-optimal one, the shortest-path comparison, hazard re-planning,
+execution). :class:`CostView` is what one search sees: energy or length costs, edges
+blocked by obstacles found later, hazard penalties; :meth:`CostView.settle` is the loop.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..dynamics.bound import EnergyBound
+from ..dynamics.cost import EnergyCost
+from ..search import Graph, Path, Planner
+from .roadmap import Roadmap, RoadmapOptions, evaluate_edges
+
+__all__ = ["LazyEdges", "CostView", "SAFETY", "lazy_plan"]
+
+#: After a bound violation, unevaluated bounds are scaled to this fraction of the smallest
+#: true/bound ratio observed (docs/design.md §4g).
+SAFETY = 0.9
+
+
+@dataclass
+class _Counters:
+    rounds: int = 0
+    simulated: int = 0
+    refused: int = 0
+    violations: int = 0
+    simulate_seconds: float = 0.0
+
+
+class LazyEdges:
+    """The edges of ``roadmap`` (NaN energies = not evaluated), simulated on demand.
+
+    ``cost`` simulates (``EnergyCost``); ``options`` give the feasibility rules;
+    ``bound`` (default: :class:`EnergyBound` of the cost's drive) the lower bounds. Edges
+    already evaluated (a cached file) are reused and checked against the bound at once.
+    Energies are written into ``roadmap.energy`` in place.
+    """
+
+    def __init__(self, roadmap: Roadmap, cost: EnergyCost, options: RoadmapOptions,
+                 bound=None) -> None:
+        self.roadmap = roadmap
+        self.cost = cost
+        self.options = options
+        self.bound = bound if bound is not None else EnergyBound(
+            cost.drive, arrival_tolerance=options.arrival_tolerance)
+        rm = roadmap
+        t0 = time.perf_counter()
+        self.lower = np.asarray(self.bound(rm.nodes[rm.src], rm.nodes[rm.dst], rm.durations),
+                                dtype=float)
+        self.bound_seconds = time.perf_counter() - t0
+        if self.lower.shape != (rm.num_edges,) or not np.all(np.isfinite(self.lower)
+                                                              & (self.lower >= 0)):
+            raise ValueError("the lower bound must give one finite value >= 0 (J) per edge")
+        self.refused = np.zeros(rm.num_edges, dtype=bool)
+        self.scale = 1.0
+        self.count = _Counters()
+        self._ratios: list[np.ndarray] = []
+        self.worst_ratio: float | None = None
+        self._lookup = {(int(u), int(v)): e for e, (u, v) in
+                        enumerate(zip(rm.src.tolist(), rm.dst.tolist(), strict=True))}
+        known = rm.evaluated
+        self.reused = int(known.sum())
+        if self.reused:
+            self._check(np.flatnonzero(known))
+
+    # ------------------------------------------------------------------ state
+    @property
+    def known(self) -> np.ndarray:
+        """(E,) bool: evaluated or refused (nothing left to simulate)."""
+        return self.roadmap.evaluated | self.refused
+
+    @property
+    def edges_evaluated(self) -> int:
+        """Edges whose energy was simulated for planning, this run or reused (refused
+        ones included: they were simulated too)."""
+        return self.reused + self.count.simulated
+
+    def edge_ids(self, nodes: list[int]) -> np.ndarray:
+        """Edge indices along a node path."""
+        lk = self._lookup
+        return np.array([lk[(a, b)] for a, b in zip(nodes[:-1], nodes[1:], strict=True)],
+                        dtype=np.int64)
+
+    def pair_ids(self, pairs) -> np.ndarray:
+        """Indices of the edges u → v and v → u of undirected node pairs (those existing)."""
+        lk = self._lookup
+        out = [lk[k] for u, v in pairs for k in ((u, v), (v, u)) if k in lk]
+        return np.array(sorted(set(out)), dtype=np.int64)
+
+    def energy_costs(self, ids: np.ndarray | None = None) -> np.ndarray:
+        """Planning energy costs (J): true E⁺ sum where evaluated, ∞ where refused, the
+        (scaled) bound elsewhere."""
+        ids = np.arange(self.roadmap.num_edges) if ids is None else np.asarray(ids)
+        e = self.roadmap.energy[ids].sum(axis=1)
+        out = np.where(np.isnan(e), self.scale * self.lower[ids], e)
+        out[self.refused[ids]] = math.inf
+        return out
+
+    def length_costs(self, ids: np.ndarray | None = None) -> np.ndarray:
+        """Joint-space lengths (rad), ∞ where refused (docs/design.md §7c)."""
+        rm = self.roadmap
+        ids = np.arange(rm.num_edges) if ids is None else np.asarray(ids)
+        out = np.linalg.norm(rm.nodes[rm.dst[ids]] - rm.nodes[rm.src[ids]], axis=1)
+        out[self.refused[ids]] = math.inf
+        return out
+
+    # ------------------------------------------------------------- evaluation
+    def evaluate(self, ids: np.ndarray) -> bool:
+        """Simulate the edges ``ids`` (not yet known) in one batch; returns True if a
+        bound violation changed the scale (every unevaluated cost then changed)."""
+        ids = np.asarray(ids, dtype=np.int64)
+        if ids.size == 0:
+            return False
+        t0 = time.perf_counter()
+        refused = evaluate_edges(self.cost, self.roadmap, ids, self.options)
+        self.count.simulate_seconds += time.perf_counter() - t0
+        self.count.simulated += int(ids.size)
+        self.count.refused += int(refused.sum())
+        self.refused[ids[refused]] = True
+        return self._check(ids[~refused])
+
+    def _check(self, ids: np.ndarray) -> bool:
+        """Compare bound and true cost on evaluated edges ``ids``; scale on a violation."""
+        if ids.size == 0:
+            return False
+        true = self.roadmap.energy[ids].sum(axis=1)
+        lb = self.lower[ids]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(true > 0, lb / np.where(true > 0, true, 1.0),
+                             np.where(lb > 0, math.inf, 0.0))
+        self._ratios.append(ratio)
+        bad = lb > true
+        if not bad.any():
+            return False
+        self.count.violations += int(bad.sum())
+        worst = float(ratio[bad].max())
+        self.worst_ratio = worst if self.worst_ratio is None else max(self.worst_ratio, worst)
+        new = SAFETY / self.worst_ratio if math.isfinite(self.worst_ratio) else 0.0
+        if new < self.scale:
+            self.scale = new
+            return True
+        return False
+
+    def ratios(self) -> np.ndarray:
+        """bound / true over the evaluated (feasible) edges checked so far."""
+        return np.concatenate(self._ratios) if self._ratios else np.zeros(0)
+
+    def record(self, evaluation: str = "lazy") -> dict:
+        """The result.json fields of docs/design.md §4g."""
+        r = self.ratios()
+        r = r[np.isfinite(r)]
+        return {
+            "rounds": self.count.rounds,
+            "bound_median_ratio": float(np.median(r)) if r.size else None,
+            "bound_violations": self.count.violations,
+            "bound_worst_ratio": self.worst_ratio,
+            "bound_scale": self.scale,
+            "simulated": self.count.simulated,
+            "reused": self.reused,
+            "refused": self.count.refused,
+            "simulate_seconds": self.count.simulate_seconds,
+            "bound_seconds": self.bound_seconds,
+            "bound": self.bound.describe() if hasattr(self.bound, "describe") else {},
+        }
+
+    def save(self, path) -> None:
+        """Write the roadmap with what was evaluated (refused edges dropped, NaN where not
+        evaluated) so a later query reuses it (docs/design.md §4f)."""
+        self.roadmap.without_edges(self.refused).save(path)
+
+
+class CostView:
+    """The costs one search sees on a :class:`LazyEdges`: ``kind`` "energy" (J) or
+    "length" (rad), edges blocked by obstacles found later (∞), hazard penalties."""
+
+    def __init__(self, lazy: LazyEdges, kind: str = "energy") -> None:
+        if kind not in ("energy", "length"):
+            raise ValueError(f"kind must be 'energy' or 'length', got {kind!r}")
+        self.lazy = lazy
+        self.kind = kind
+        self.blocked = np.zeros(lazy.roadmap.num_edges, dtype=bool)
+        self.penalty: dict[int, tuple[float, float]] = {}
+
+    def costs(self, ids: np.ndarray | None = None) -> np.ndarray:
+        """Current planning costs of the edges ``ids`` (all by default)."""
+        from .hazards import penalised_cost
+
+        lz = self.lazy
+        ids = np.arange(lz.roadmap.num_edges) if ids is None else np.asarray(ids, np.int64)
+        c = lz.energy_costs(ids) if self.kind == "energy" else lz.length_costs(ids)
+        c[self.blocked[ids]] = math.inf
+        if self.penalty:
+            for j, e in enumerate(ids.tolist()):
+                if e in self.penalty:
+                    c[j] = penalised_cost(float(c[j]), *self.penalty[e])
+        return c
+
+    def graph(self) -> Graph:
+        """A search graph on the current costs."""
+        rm = self.lazy.roadmap
+        return Graph.from_arrays(rm.num_nodes, rm.src, rm.dst, self.costs())
+
+    def _push(self, planner: Planner, ids: np.ndarray) -> None:
+        rm = self.lazy.roadmap
+        if ids.size:
+            planner.update_edges((rm.src[ids], rm.dst[ids], self.costs(ids)))
+
+    def block(self, planner: Planner, pairs) -> int:
+        """Block (∞) both directions of the undirected node ``pairs`` in this view and in
+        ``planner``, evaluated or not; returns how many directed edges."""
+        ids = self.lazy.pair_ids(pairs)
+        self.blocked[ids] = True
+        self._push(planner, ids)
+        return int(ids.size)
+
+    def penalise(self, planner: Planner, pairs, penalty: float, floor: float) -> None:
+        """Cost both directions of ``pairs`` ``penalised_cost(cost, penalty, floor)`` from
+        now on (also once evaluated)."""
+        ids = self.lazy.pair_ids(pairs)
+        for e in ids.tolist():
+            self.penalty[e] = (float(penalty), float(floor))
+        self._push(planner, ids)
+
+    def settle(self, planner: Planner) -> Path:
+        """The LazySP loop: plan, simulate the path's unknown edges in one batch, enter
+        their costs in one ``update_edges`` (all unevaluated ones after a bound violation),
+        repair; until the path's edges are all known. Raises NoPathError like plan()."""
+        lz = self.lazy
+        rm = lz.roadmap
+        while True:
+            path = planner.plan()
+            ids = lz.edge_ids(path.nodes)
+            todo = ids[~lz.known[ids]]
+            if todo.size == 0:
+                return path
+            lz.count.rounds += 1
+            rescaled = lz.evaluate(todo)
+            if rescaled and self.kind == "energy":
+                todo = np.union1d(todo, np.flatnonzero(~rm.evaluated & ~lz.refused))
+            self._push(planner, todo)
+
+
+def lazy_plan(lazy: LazyEdges, planner_cls, kind: str = "energy") -> tuple[Path, Planner]:
+    """One lazy search from the roadmap's start to its goal: (path, planner)."""
+    view = CostView(lazy, kind)
+    p = planner_cls(view.graph(), lazy.roadmap.start, lazy.roadmap.goal)
+    return view.settle(p), p

@@ -3,6 +3,7 @@
     mpd-pin scenarios                       list the built-in scenarios
     mpd-pin run NAME|FILE --out DIR         plan a scenario, write result.json, plots, replay.html
         [--seed N] [--planner NAME]         (planners: mpd_pin.search.PLANNERS, listed by --help)
+        [--evaluation lazy|eager]           (override [roadmap] evaluation)
 
 Scenario kinds are dispatched by :mod:`mpd_pin.app.kinds`; this module knows none of them.
 
@@ -56,6 +57,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     from .kinds import load_scenario, run_scenario, summary_line
 
     scn = load_scenario(args.scenario, seed=args.seed, planner=args.planner)
+    if args.evaluation is not None:
+        if getattr(scn, "kind", None) != "energy":
+            raise ConfigError(f"--evaluation does not apply to {args.scenario!r}, a "
+                              f"{getattr(scn, 'kind', '?')} scenario (no energy roadmap)")
+        from dataclasses import replace
+
+        scn = replace(scn, evaluation=args.evaluation)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} exists and is not a directory")
@@ -93,6 +101,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--planner", choices=list(PLANNERS), default=None,
                    help="override [planner] algorithm of an energy scenario")
     p.add_argument("--cache", default=None, help="roadmap .npz to reuse (or create)")
+    p.add_argument("--evaluation", choices=("lazy", "eager"), default=None,
+                   help="override [roadmap] evaluation: simulate edges as the search needs "
+                        "them (lazy) or all before it (eager)")
     p.add_argument("--no-replay", action="store_true", help="skip the meshcat replay.html")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_run)

@@ -8,9 +8,14 @@ where every non-finite number is ``null``) holds:
 * ``motor`` — one ``DCMotor`` or one per joint (``v_max: null`` — no voltage limit);
   ``controller`` — ``kp``, ``kd``, ``feedforward``; ``current_model`` — which current
   integration ran (``rk4``, ``exponential`` or both, per joint: docs/design.md §3e);
-* ``roadmap`` — ``num_nodes``, ``num_edges``, ``edge_counts`` (directed candidates
-  lengthened for the velocity limits, refused for effort, refused for not arriving:
-  docs/design.md §4e), ``options`` (``RoadmapOptions``), ``key``;
+* ``roadmap`` — ``num_nodes``, ``num_edges`` (eager: the feasible directed edges; lazy:
+  every collision-free directed edge), ``evaluation`` (``lazy``/``eager``),
+  ``edges_evaluated`` (directed edges simulated for planning, reused from a cache file
+  included), ``lazy`` (``rounds``, ``bound_median_ratio``, ``bound_violations``,
+  ``bound_worst_ratio``, and when lazy the bound's scale and the simulation counts:
+  docs/design.md §4g), ``edge_counts`` (directed candidates lengthened for the velocity
+  limits, refused for effort, refused for not arriving: docs/design.md §4e; lazy: among
+  the evaluated ones), ``options`` (``RoadmapOptions``), ``key``;
 * ``hazard_replanning`` (``HazardResult.to_dict``: ``penalty: null`` — ∞, edges removed;
   ``penalty_floor: null`` — unused; margins ``null`` — no hazard), ``execution``
   (``ExecutionResult.to_dict``, energies unpenalised), when they ran;
@@ -192,11 +197,26 @@ def write_replay_html(
     }
 
 
-def _roadmap_record(scn: EnergyScenario, roadmap: Roadmap) -> dict[str, Any]:
+def _roadmap_record(scn: EnergyScenario, setup: Setup) -> dict[str, Any]:
+    roadmap, lazy = setup.roadmap, setup.lazy
+    counts = dict(roadmap.edge_counts)  # lengthened / refused directed candidates
+    refused = counts.get("refused_effort", 0) + counts.get("refused_arrival", 0)
+    if lazy is None:  # eager: the feasible edges; every candidate was simulated
+        num_edges, evaluated = roadmap.num_edges, roadmap.num_edges + refused
+        lazy_rec: dict[str, Any] = {"rounds": 0, "bound_median_ratio": None,
+                                    "bound_violations": 0, "bound_worst_ratio": None}
+    else:  # lazy: every collision-free directed edge (refused ones found so far included)
+        dropped = refused - lazy.count.refused  # refused in an earlier run, not in the arrays
+        num_edges, evaluated = roadmap.num_edges + dropped, lazy.edges_evaluated + dropped
+        lazy_rec = lazy.record()
     return {
         "num_nodes": roadmap.num_nodes,
-        "num_edges": roadmap.num_edges,
-        "edge_counts": dict(roadmap.edge_counts),  # lengthened / refused directed candidates
+        "num_edges": num_edges,
+        "evaluation": setup.evaluation,
+        "edges_evaluated": evaluated,
+        "lazy": lazy_rec,
+        "evaluation_notes": list(setup.notes),
+        "edge_counts": counts,
         "options": asdict(scn.options),
         "key": roadmap.key,
     }
@@ -235,7 +255,7 @@ def result_record(
         "motor": [asdict(m) for m in motor] if isinstance(motor, list) else asdict(motor),
         "controller": {"kp": scn.kp, "kd": scn.kd, "feedforward": scn.feedforward},
         "current_model": current_model(setup.drive, scn.options.dt),
-        "roadmap": _roadmap_record(scn, setup.roadmap),
+        "roadmap": _roadmap_record(scn, setup),
         "planner": scn.planner,
         "start": scn.start,
         "goal": scn.goal,
@@ -260,6 +280,9 @@ def result_record(
     record["verification"] = check.to_dict()
     if replay is not None:
         record["replay"] = replay
+    if setup.lazy is not None:  # lazy: simulated during the searches (docs/design.md §4g)
+        setup.roadmap.timings["edge_energies"] = setup.lazy.count.simulate_seconds
+        setup.roadmap.timings["edge_bounds"] = setup.lazy.bound_seconds
     record.update(_timing_record(setup.roadmap, clock))
     return record
 

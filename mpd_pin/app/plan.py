@@ -11,6 +11,12 @@ scenario. :func:`plan_path` then finds the path, in one of three modes:
 
 Energies are always the roadmap's own (unpenalised) E⁺.
 
+With ``evaluation = "lazy"`` (the default, docs/design.md §4g) the roadmap is built
+without costs and every search runs through :class:`~mpd_pin.planning.lazy.CostView`:
+the paths it returns — planned, hazard re-planned, repaired during execution, shortest —
+have all their edges simulated before they are used, and what was simulated is written
+back to the cache file.
+
 :func:`plan_shortest` plans the same scenario — same roadmap edges, obstacles, hazard
 re-planning, sensing and repair, same planner — on the *distance* costs of
 :func:`edge_lengths` (the usual PRM objective), for the comparison of docs/design.md §7c.
@@ -18,6 +24,7 @@ re-planning, sensing and repair, same planner — on the *distance* costs of
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -30,6 +37,7 @@ from ..dynamics import EnergyCost
 from ..dynamics.motor import Drive
 from ..planning.execution import ExecutionResult, execute
 from ..planning.hazards import HazardResult, plan_avoiding_hazards
+from ..planning.lazy import CostView, LazyEdges
 from ..planning.roadmap import Roadmap, build_roadmap
 from ..search import PLANNERS
 from ..world import World
@@ -52,6 +60,9 @@ class Setup:
     """What a scenario plans on: its drive, world, planning checker and roadmap.
 
     world_record: the world as given (``World.to_dict``, before any obstacle is revealed).
+    evaluation: "lazy" or "eager" as run; lazy: the evaluation state (None when eager);
+    cache: the roadmap file written back after a lazy search; notes: why the evaluation
+    differs from the scenario's, if it does.
     """
 
     drive: Drive
@@ -59,6 +70,10 @@ class Setup:
     checker: CollisionChecker
     roadmap: Roadmap
     world_record: dict[str, Any]
+    evaluation: str = "eager"
+    lazy: LazyEdges | None = None
+    cache: Path | None = None
+    notes: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -85,16 +100,28 @@ def prepare(
     scn: EnergyScenario, *, cache: Path | None = None, show_progress: bool = True
 ) -> Setup:
     """Build the drive, the planning checker (known obstacles) and the roadmap of ``scn``
-    (loaded from ``cache``, a ``.npz``, when it was built with the same key)."""
+    (loaded from ``cache``, a ``.npz``, when it was built with the same key). A lazy
+    scenario's roadmap is built without costs (docs/design.md §4g)."""
     drive = scn.drive()
     world = scn.world
     world.reset()
     checker = CollisionChecker(scn.arm, world)
     cost = EnergyCost(drive, scn.options.dt)
+    evaluation = getattr(scn, "evaluation", "eager")
+    notes = []
+    if evaluation == "lazy" and math.isfinite(scn.hazard_penalty) and any(
+        h.clearance > 0 for h in world.hazards
+    ):
+        evaluation = "eager"
+        notes.append("a finite planner.hazard_penalty takes its floor from the mean energy of "
+                     "every edge: evaluated eagerly")
     roadmap = build_roadmap(
-        cost, checker, scn.start, scn.goal, scn.options, cache=cache, show_progress=show_progress
+        cost, checker, scn.start, scn.goal, scn.options, cache=cache, show_progress=show_progress,
+        evaluate=evaluation == "eager",
     )
-    return Setup(drive, world, checker, roadmap, world.to_dict())
+    lazy = LazyEdges(roadmap, cost, scn.options) if evaluation == "lazy" else None
+    return Setup(drive, world, checker, roadmap, world.to_dict(), evaluation, lazy,
+                 None if cache is None else Path(cache), notes)
 
 
 def edge_lengths(roadmap: Roadmap) -> np.ndarray:
@@ -123,6 +150,8 @@ def plan_path(scn: EnergyScenario, setup: Setup) -> PlanResult:
     """Find the path of ``scn`` on ``setup.roadmap``: hazard re-planning first if the world
     has hazards with a clearance, then execution with sensing if it has hidden obstacles,
     else one search."""
+    if setup.lazy is not None:
+        return _plan_lazy(scn, setup, "energy")
     return _plan_on(scn, setup, setup.roadmap)
 
 
@@ -135,6 +164,8 @@ def plan_shortest(scn: EnergyScenario, setup: Setup) -> PlanResult:
     revealed = sorted(world.revealed)
     world.reset()
     try:
+        if setup.lazy is not None:
+            return _plan_lazy(scn, setup, "length")
         return _plan_on(scn, setup, distance_roadmap(setup.roadmap))
     finally:
         world.reset()
@@ -191,3 +222,47 @@ def _plan_on(scn: EnergyScenario, setup: Setup, costs: Roadmap) -> PlanResult:
     # With hazards the path is the re-planned one (penalised costs); else the plan.
     path = list(hazard.final_path) if hazard is not None else list(plan.nodes)
     return PlanResult(path, roadmap.path_energy(path), search, hazard, None, other_paths)
+
+
+def _plan_lazy(scn: EnergyScenario, setup: Setup, kind: str) -> PlanResult:
+    """:func:`_plan_on` for a lazy roadmap: every search through one
+    :class:`~mpd_pin.planning.lazy.CostView` of ``kind`` ("energy" or "length"); then the
+    evaluated energies are written back to the cache file (docs/design.md §4g)."""
+    planner = PLANNERS[scn.planner]
+    roadmap, world, lazy = setup.roadmap, setup.world, setup.lazy
+    view = CostView(lazy, kind)
+    hazard = None
+    other_paths: dict[str, list[int]] = {}
+    try:
+        if any(h.clearance > 0 for h in world.hazards):
+            hazard = plan_avoiding_hazards(
+                roadmap, setup.checker, resolution=scn.options.resolution,
+                penalty=scn.hazard_penalty, planner=planner, view=view,
+            )
+            if hazard.first_path != hazard.final_path:
+                other_paths["cheapest path (too close to a hazard)"] = hazard.first_path
+        if world.hidden_names():
+            run = execute(
+                roadmap, setup.checker, sensor_range=float(scn.sensor_range),
+                resolution=scn.options.resolution, planner=planner, view=view,
+            )
+            if run.initial_path != run.travelled:
+                other_paths["initial plan (before the new obstacle)"] = run.initial_path
+            search = {
+                "initial_plan_seconds": run.initial_plan_seconds,
+                "expansions": run.initial_expansions,
+            }
+            return PlanResult(run.travelled, run.energy, search, hazard, run, other_paths)
+        p = planner(view.graph(), roadmap.start, roadmap.goal)
+        ts = time.perf_counter()
+        plan = view.settle(p)
+        search = {
+            "initial_plan_seconds": time.perf_counter() - ts,
+            "expansions": p.stats.expansions,
+            "edge_evaluations": p.stats.edge_evaluations,
+        }
+        path = list(hazard.final_path) if hazard is not None else list(plan.nodes)
+        return PlanResult(path, roadmap.path_energy(path), search, hazard, None, other_paths)
+    finally:
+        if setup.cache is not None:
+            lazy.save(setup.cache)

@@ -22,7 +22,8 @@ A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
     kd = 4.0                   # V·s/rad
     feedforward = true
 
-    [roadmap]                  # RoadmapOptions fields
+    [roadmap]                  # RoadmapOptions fields, and:
+    evaluation = "lazy"        # or "eager": simulate every edge before searching
     num_nodes = 150
     k = 10
     seed = 1
@@ -84,6 +85,9 @@ __all__ = [
     "resolve_scenario",
 ]
 
+#: Values of ``[roadmap] evaluation`` (docs/design.md §4g); the first is the default.
+EVALUATIONS = ("lazy", "eager")
+
 MOTOR_PRESETS = {"paper": PAPER_MOTOR, "servo": SERVO_MOTOR, "sized": None}  # sized: per arm
 
 
@@ -109,6 +113,8 @@ class EnergyScenario:
     planner: str = DEFAULT_PLANNER
     source: str = ""
     extra: dict[str, Any] = field(default_factory=dict)
+    #: "lazy" (simulate only the edges the search needs) or "eager" (docs/design.md §4g)
+    evaluation: str = "lazy"
 
     def drive(self) -> Drive:
         return Drive(self.arm, self.motor, self.kp, self.kd, feedforward=self.feedforward)
@@ -428,7 +434,9 @@ def parse_energy_scenario(
     kd = _gain(ctl, "kd", 4.0, arm.nq)
     ff = ctl.boolean("feedforward", True)
     ctl.done()
-    options = _options(top.table("roadmap"))
+    roadmap_t = top.table("roadmap")
+    evaluation = roadmap_t.string("evaluation", "lazy", choices=EVALUATIONS)
+    options = _options(roadmap_t)
     if seed is not None:
         options = replace(options, seed=int(seed))
     obstacles = []
@@ -476,4 +484,5 @@ def parse_energy_scenario(
         hazard_penalty=penalty,
         planner=planner,
         source=source,
+        evaluation=evaluation,
     )

@@ -126,8 +126,15 @@ def execute(
     resolution: float,
     planner: PlannerFactory = MPDStarLite,
     max_steps: int | None = None,
+    view=None,
 ) -> ExecutionResult:
     """Move along the planned path node by node, revealing hidden obstacles and repairing.
+
+    With ``view`` (a :class:`~mpd_pin.planning.lazy.CostView` of a lazy roadmap) the
+    planner searches the view's costs; every plan and repair is settled (the unevaluated
+    edges of the path simulated, the search repaired, until its edges are known) before
+    the arm moves, and newly found obstacles block edges in the view, evaluated or not, in
+    one ``update_edges`` batch (docs/design.md §4g).
 
     ``checker`` is the planning checker; its ``world`` holds the hidden
     obstacles (they are revealed in it). ``sensor_range`` in metres, ``resolution``
@@ -139,10 +146,11 @@ def execute(
     world = checker.world
     arm = checker.arm
     truth = CollisionChecker(arm, world, include_hidden=True)
-    graph = roadmap.graph()
+    graph = roadmap.graph() if view is None else view.graph()
+    solve = (lambda p: p.plan()) if view is None else view.settle
     p = planner(graph, roadmap.start, roadmap.goal)
     t0 = time.perf_counter()
-    path = p.plan()
+    path = solve(p)
     initial_seconds = time.perf_counter() - t0
     result = ExecutionResult(
         initial_path=list(path.nodes),
@@ -175,11 +183,12 @@ def execute(
             before = list(path.nodes)
             before_stats = p.stats.copy()
             tp = time.perf_counter()
-            for u, v in cut:
-                for a, b in ((u, v), (v, u)):
-                    if graph.has_edge(a, b):
-                        p.update_edge(a, b, math.inf)
-            path = p.plan()
+            if view is not None:
+                view.block(p, cut)
+            else:  # one batch: every changed tail repaired once (docs/design.md §5f)
+                p.update_edges([(a, b, math.inf) for u, v in cut for a, b in ((u, v), (v, u))
+                                if graph.has_edge(a, b)])
+            path = solve(p)
             plan_seconds = time.perf_counter() - tp
             result.replans.append(
                 ReplanEvent(
@@ -200,7 +209,7 @@ def execute(
         result.travelled.append(int(current))
         if current != roadmap.goal:
             p.move_start(current)
-            path = p.plan()
+            path = solve(p)
         step += 1
     result.energy = roadmap.path_energy(result.travelled)
     return result

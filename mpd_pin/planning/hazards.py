@@ -141,8 +141,13 @@ def plan_avoiding_hazards(
     penalty: float = math.inf,
     penalty_floor: float | None = None,
     planner: Callable[..., Planner] = MPDStarLite,
+    view=None,
 ) -> HazardResult:
     """Plan, then re-plan until the path keeps every hazard's clearance (Fig. 17).
+
+    With ``view`` (a :class:`~mpd_pin.planning.lazy.CostView` of a lazy roadmap) the
+    planner searches the view's costs, every path is settled (its edges simulated) before
+    its clearance is checked, and the penalties go into the view (docs/design.md §4g).
 
     Edges whose configurations (at ``resolution`` rad) come closer to a hazard
     than its clearance get the cost ``penalised_cost(cost, penalty, floor)``
@@ -160,13 +165,14 @@ def plan_avoiding_hazards(
         raise ValueError(f"penalty must be ≥ 1 (or inf to remove edges), got {penalty!r}")
     if penalty_floor is not None and not (math.isfinite(penalty_floor) and penalty_floor >= 0.0):
         raise ValueError(f"penalty_floor must be finite and ≥ 0 (J), got {penalty_floor!r}")
-    graph = roadmap.graph()
+    graph = roadmap.graph() if view is None else view.graph()
+    solve = (lambda p: p.plan()) if view is None else view.settle
     if not math.isfinite(penalty):
         floor = math.inf
     elif penalty_floor is not None:
         floor = float(penalty_floor)
     else:
-        c = np.asarray(roadmap.cost, dtype=float)
+        c = np.asarray(roadmap.cost if view is None else view.costs(), dtype=float)
         c = c[np.isfinite(c) & (c > 0)]
         floor = (penalty - 1.0) * (float(c.mean()) if c.size else 1.0)
     p = planner(graph, roadmap.start, roadmap.goal)
@@ -180,7 +186,7 @@ def plan_avoiding_hazards(
         return margins[key]
 
     t0 = time.perf_counter()
-    path = p.plan()
+    path = solve(p)
     first = list(path.nodes)
     penalised: list[tuple[int, int]] = []
     done: set[tuple[int, int]] = set()
@@ -196,10 +202,13 @@ def plan_avoiding_hazards(
             break
         for u, v in bad:
             penalised.append((u, v))
+            if view is not None:
+                view.penalise(p, [(u, v)], penalty, floor)
+                continue
             for a, b in ((u, v), (v, u)):
                 if graph.has_edge(a, b):
                     p.update_edge(a, b, penalised_cost(graph.cost(a, b), penalty, floor))
-        path = p.plan()
+        path = solve(p)
         rounds += 1
     seconds = time.perf_counter() - t0
 

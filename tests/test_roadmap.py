@@ -300,7 +300,10 @@ CRAFTED = {
     "float edge ids": (lambda d, n: {"src": d["src"].astype(float)}, "integer"),
     "negative energy": (lambda d, n: {"energy": d["energy"] * np.r_[-1, np.ones(2)]},
                         "energies must be finite and >= 0"),
-    "nan energy": (lambda d, n: {"energy": np.where(d["energy"] > 0, np.nan, 0.0)},
+    # NaN in one joint only (a row of NaN is an edge not yet evaluated: §4f)
+    "nan energy": (lambda d, n: {"energy": d["energy"] * np.r_[np.nan, np.ones(2)]},
+                   "energies must be finite"),
+    "inf energy": (lambda d, n: {"energy": d["energy"] * np.r_[np.inf, np.ones(2)]},
                    "energies must be finite"),
     "zero duration": (lambda d, n: {"durations": d["durations"] * 0}, "durations"),
     "short durations": (lambda d, n: {"durations": d["durations"][:-1]}, "edges but"),

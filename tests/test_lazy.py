@@ -203,6 +203,13 @@ def test_bound_parts_and_moments(planar):
     assert one.uniform_ratio and one.rho == pytest.approx(2.0)
     with pytest.raises(ValueError, match="moments"):
         EnergyBound(drive, moments=0)
+    # the PE margin's |G_k| bound holds at random configurations (and is nearly reached)
+    rng = np.random.default_rng(0)
+    arm = drive.arm
+    G = np.array([arm.gravity(rng.uniform(arm.lower_limits, arm.upper_limits))
+                  for _ in range(500)])
+    gmax = one._gmax
+    assert np.all(np.abs(G) <= gmax) and np.all(np.abs(G).max(axis=0) >= 0.9 * gmax)
 
 
 # ------------------------------------------------------------ batched edge updates

@@ -174,9 +174,11 @@ def _potential(drive: Drive, Q: np.ndarray) -> np.ndarray:
 
 
 def _gravity_torque_bound(model: pin.Model) -> np.ndarray:
-    """(nq,) upper bound of |G_k(q)| over all q (N·m): g · Σ over the bodies moved by
-    joint k of mass × (distance from joint k to the body's centre of mass, bounded by the
-    chain of joint placements), by the triangle inequality."""
+    """(nq,) upper bound of |G_k(q)| over all q (N·m, N for a prismatic joint): g · Σ over
+    the bodies moved by joint k of mass × (distance from joint k to the body's centre of
+    mass, bounded by the chain of joint placements; 1 for a prismatic joint), by the
+    triangle inequality. For a revolute joint the placements from joint k's origin on
+    bound the distance to its axis too."""
     g = float(np.linalg.norm(model.gravity.linear))
     nj = model.njoints
     out = np.zeros(model.nv)
@@ -184,6 +186,7 @@ def _gravity_torque_bound(model: pin.Model) -> np.ndarray:
         idx = model.joints[k].idx_v
         if model.joints[k].nv != 1:
             continue
+        prismatic = model.joints[k].shortname().startswith(("JointModelP", "JointModelPrismatic"))
         total = 0.0
         for b in range(k, nj):
             # walk from body b up to joint k, summing placement lengths
@@ -194,8 +197,9 @@ def _gravity_torque_bound(model: pin.Model) -> np.ndarray:
                     break
                 reach += float(np.linalg.norm(model.jointPlacements[j].translation))
                 j = model.parents[j]
-            if ok:
+            if ok:  # a force for a prismatic joint: |G_k| ≤ g Σ m
                 inertia = model.inertias[b]
-                total += inertia.mass * (reach + float(np.linalg.norm(inertia.lever)))
+                arm = 1.0 if prismatic else reach + float(np.linalg.norm(inertia.lever))
+                total += inertia.mass * arm
         out[idx] = g * total
     return out

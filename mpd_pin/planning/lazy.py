@@ -32,13 +32,38 @@ import numpy as np
 from ..dynamics.bound import EnergyBound
 from ..dynamics.cost import EnergyCost
 from ..search import Graph, Path, Planner
-from .roadmap import Roadmap, RoadmapOptions, evaluate_edges
+from .roadmap import Roadmap, RoadmapOptions, feasibility
 
-__all__ = ["LazyEdges", "CostView", "SAFETY", "lazy_plan"]
+__all__ = ["LazyEdges", "CostView", "SAFETY", "evaluate_edges", "lazy_plan"]
 
 #: After a bound violation, unevaluated bounds are scaled to this fraction of the smallest
 #: true/bound ratio observed (docs/design.md §4g).
 SAFETY = 0.9
+
+
+def evaluate_edges(
+    cost: EnergyCost, roadmap: Roadmap, ids: np.ndarray, options: RoadmapOptions,
+    progress=None,
+) -> np.ndarray:
+    """Simulate the roadmap edges ``ids`` (one batch through ``cost.outcomes``) and write
+    the E⁺ per joint (J) of the feasible ones into ``roadmap.energy``; the refused ones
+    stay NaN and are counted in ``roadmap.edge_counts``. Returns the (len(ids),) bool mask
+    of the refused edges (docs/design.md §4e, §4g)."""
+    ids = np.asarray(ids, dtype=np.int64)
+    if ids.size == 0:
+        return np.zeros(0, dtype=bool)
+    model = cost.drive.arm.model
+    nodes = roadmap.nodes
+    out = cost.outcomes(nodes[roadmap.src[ids]], nodes[roadmap.dst[ids]],
+                        roadmap.durations[ids], progress=progress)
+    over, missed = feasibility(out, options, model)
+    refused = over | missed
+    energy = np.asarray(out.energy, float)
+    roadmap.energy[ids[~refused]] = energy[~refused]
+    counts = roadmap.edge_counts
+    counts["refused_effort"] = counts.get("refused_effort", 0) + int(over.sum())
+    counts["refused_arrival"] = counts.get("refused_arrival", 0) + int((missed & ~over).sum())
+    return refused
 
 
 @dataclass

@@ -533,31 +533,6 @@ def feasibility(out, options: RoadmapOptions, model) -> tuple[np.ndarray, np.nda
     return over, missed
 
 
-def evaluate_edges(
-    cost: EnergyCost, roadmap: Roadmap, ids: np.ndarray, options: RoadmapOptions,
-    progress=None,
-) -> np.ndarray:
-    """Simulate the roadmap edges ``ids`` (one batch through ``cost.outcomes``) and write
-    the E⁺ per joint (J) of the feasible ones into ``roadmap.energy``; the refused ones
-    stay NaN and are counted in ``roadmap.edge_counts``. Returns the (len(ids),) bool mask
-    of the refused edges (docs/design.md §4e, §4g)."""
-    ids = np.asarray(ids, dtype=np.int64)
-    if ids.size == 0:
-        return np.zeros(0, dtype=bool)
-    model = cost.drive.arm.model
-    nodes = roadmap.nodes
-    out = cost.outcomes(nodes[roadmap.src[ids]], nodes[roadmap.dst[ids]],
-                        roadmap.durations[ids], progress=progress)
-    over, missed = feasibility(out, options, model)
-    refused = over | missed
-    energy = np.asarray(out.energy, float)
-    roadmap.energy[ids[~refused]] = energy[~refused]
-    counts = roadmap.edge_counts
-    counts["refused_effort"] = counts.get("refused_effort", 0) + int(over.sum())
-    counts["refused_arrival"] = counts.get("refused_arrival", 0) + int((missed & ~over).sum())
-    return refused
-
-
 def _candidate_edges(nodes, pairs, options: RoadmapOptions, model):
     """Both directions of every pair, timed within the velocity limits, not simulated
     (energy NaN): src, dst, durations (s), energy (E, nq) and the counts."""
@@ -599,6 +574,8 @@ def _complete(cost: EnergyCost, roadmap: Roadmap, options: RoadmapOptions, tqdm,
     """Evaluate the NaN edges of a loaded roadmap and drop the refused ones (eager use of a
     lazily built file)."""
     import time
+
+    from .lazy import evaluate_edges  # the lazy module builds on this one
 
     t0 = time.perf_counter()
     todo = np.flatnonzero(~roadmap.evaluated)

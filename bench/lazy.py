@@ -132,18 +132,12 @@ def obstacle_near(g: Graph, pts: np.ndarray, node: int, protect: set[int], want:
     return sorted(set(edges))
 
 
-def section_repair(repeats: int) -> None:
-    print("\n== 2. Repair after an obstacle appears near the robot (10k-node kNN graph) ==")
-    n = 10_000
-    pts, src, dst, cost = random_geometric_arrays(n, 10, seed=1)
-    g0 = Graph.from_arrays(n, src, dst, cost)
-    s, t = int(np.argmin(pts.sum(1))), int(np.argmax(pts.sum(1)))
-    first = MPDStarLite(g0.copy(), s, t).plan().nodes
-    blocked = obstacle_near(g0, pts, first[2], {s, t}, want=170)
+def _repair_times(g0, pts, s, t, blocked, repeats):
+    """Best-of times (s) of the batched and the single-call repair, and networkx's."""
     U = np.array([u for u, _ in blocked])
     V = np.array([v for _, v in blocked])
     C = np.full(U.size, math.inf)
-    times, paths = {}, {}
+    times, out = {}, {}
     for mode in ("update_edges", "update_edge"):
         best = math.inf
         for _ in range(repeats):
@@ -157,7 +151,7 @@ def section_repair(repeats: int) -> None:
                     p.update_edge(u, v, math.inf)
             path = p.plan()
             best = min(best, time.perf_counter() - t0)
-        times[mode], paths[mode] = best, (path, p.last_stats.expansions)
+        times[mode], out[mode] = best, (path.cost, p.last_stats.expansions)
     G = nx.DiGraph()
     ss, dd, cc = g0.to_arrays()
     G.add_weighted_edges_from(zip(ss.tolist(), dd.tolist(), cc.tolist(), strict=True))
@@ -173,17 +167,33 @@ def section_repair(repeats: int) -> None:
         ref = nx.astar_path(G, s, t, heuristic=h)
         best = min(best, time.perf_counter() - t0)
     ref_cost = nx.path_weight(G, ref, "weight")
-    for mode, (path, _exp) in paths.items():
-        assert abs(path.cost - ref_cost) <= 1e-12 * ref_cost, (mode, path.cost, ref_cost)
-    sp = best / times["update_edges"]
-    print(f"   blocked {len(blocked)} directed edges around node {first[2]} (third on the path)")
-    print(f"   MPD* Lite repair, one update_edges batch: {times['update_edges'] * 1e3:.3f} ms "
-          f"({paths['update_edges'][1]} expansions)")
-    print(f"   MPD* Lite repair, single update_edge calls: {times['update_edge'] * 1e3:.3f} ms")
-    print(f"   networkx.astar_path, Euclidean heuristic, from scratch: {best * 1e3:.2f} ms")
-    print(f"   same cost: {path.cost:.12g} vs {ref_cost:.12g}")
-    target("repair near the robot >= 20x faster than networkx.astar_path (Euclidean)",
-           sp >= 20.0, f"{times['update_edges'] * 1e3:.3f} ms vs {best * 1e3:.2f} ms = {sp:.1f}x")
+    for mode, (cost, _) in out.items():
+        assert abs(cost - ref_cost) <= 1e-12 * ref_cost, (mode, cost, ref_cost)
+    return times, best, out["update_edges"][1]
+
+
+def section_repair(repeats: int) -> None:
+    print("\n== 2. Repair after an obstacle appears near the robot (10k-node kNN graph) ==")
+    n = 10_000
+    pts, src, dst, cost = random_geometric_arrays(n, 10, seed=1)
+    g0 = Graph.from_arrays(n, src, dst, cost)
+    s, t = int(np.argmin(pts.sum(1))), int(np.argmax(pts.sum(1)))
+    first = MPDStarLite(g0.copy(), s, t).plan().nodes
+    print(f"   obstacle around path node k (k = 2..6 from the robot), >= 170 directed edges "
+          f"blocked; best of {repeats}; costs asserted equal to networkx's")
+    print(f"   {'k':>2} {'blocked':>7} {'expanded':>8} | {'update_edges':>12} "
+          f"{'update_edge':>11} | {'nx.astar eucl':>13} | {'speed-up':>8}")
+    ups = []
+    for k in range(2, 7):
+        blocked = obstacle_near(g0, pts, first[k], {s, t}, want=170)
+        times, nx_t, exp = _repair_times(g0, pts, s, t, blocked, repeats)
+        up = nx_t / times["update_edges"]
+        ups.append(up)
+        print(f"   {k:>2} {len(blocked):>7} {exp:>8} | {times['update_edges'] * 1e3:9.3f} ms "
+              f"{times['update_edge'] * 1e3:8.3f} ms | {nx_t * 1e3:10.2f} ms | {up:7.1f}x")
+    med = float(np.median(ups))
+    target("repair near the robot >= 20x faster than networkx.astar_path (Euclidean), median",
+           med >= 20.0, f"median {med:.1f}x, min {min(ups):.1f}x over 5 placements")
 
 
 def main() -> None:

@@ -377,3 +377,40 @@ def test_evaluation_key_and_cli(tmp_path, capsys):
     assert main(["run", "env1", "--out", str(tmp_path / "e"), "--quiet",
                  "--evaluation", "eager"]) == 2
     assert "--evaluation does not apply" in capsys.readouterr().err
+
+
+def test_result_json_fields_lazy_eager_and_cache_reuse(tmp_path):
+    import json
+
+    cache = tmp_path / "rm.npz"
+    runs = {}
+    for tag, extra in (("lazy", ["--cache", str(cache)]), ("again", ["--cache", str(cache)]),
+                       ("eager", ["--evaluation", "eager"])):
+        out = tmp_path / tag
+        assert main(["run", "case1", "--out", str(out), "--quiet", "--no-replay", *extra]) == 0
+        runs[tag] = json.loads((out / "result.json").read_text())
+    lazy, again, eager = (runs[k]["roadmap"] for k in ("lazy", "again", "eager"))
+    assert lazy["evaluation"] == again["evaluation"] == "lazy" and eager["evaluation"] == "eager"
+    assert lazy["num_edges"] == again["num_edges"] == eager["num_edges"]  # none refused here
+    assert eager["edges_evaluated"] == eager["num_edges"]
+    assert eager["lazy"] == {"rounds": 0, "bound_median_ratio": None, "bound_violations": 0,
+                             "bound_worst_ratio": None}
+    assert 0 < lazy["edges_evaluated"] == lazy["lazy"]["simulated"] < 0.05 * lazy["num_edges"]
+    assert lazy["lazy"]["rounds"] >= 1 and lazy["lazy"]["bound_violations"] == 0
+    assert 0 < lazy["lazy"]["bound_median_ratio"] < 1
+    # the second query reuses the file: nothing simulated, the same answer
+    assert again["lazy"]["simulated"] == 0 and again["lazy"]["rounds"] == 0
+    assert again["edges_evaluated"] == again["lazy"]["reused"] == lazy["edges_evaluated"]
+    for r in (runs["again"], runs["eager"]):
+        assert r["path"]["nodes"] == runs["lazy"]["path"]["nodes"]
+        assert r["total_energy"] == runs["lazy"]["total_energy"]
+        assert r["comparison"]["shortest_path"]["total_energy"] == \
+            runs["lazy"]["comparison"]["shortest_path"]["total_energy"]
+    assert runs["lazy"]["seconds_per_phase"]["roadmap_edge_energies"] > 0
+
+
+def test_finite_hazard_penalty_runs_eagerly():
+    scn = replace(_scenario("hazard", "lazy"), hazard_penalty=5.0)
+    setup = prepare(scn, show_progress=False)
+    assert setup.evaluation == "eager" and setup.lazy is None and setup.notes
+    assert setup.roadmap.evaluated.all()

@@ -414,3 +414,23 @@ def test_finite_hazard_penalty_runs_eagerly():
     setup = prepare(scn, show_progress=False)
     assert setup.evaluation == "eager" and setup.lazy is None and setup.notes
     assert setup.roadmap.evaluated.all()
+
+
+@pytest.mark.parametrize("motor", ["paper", "servo"])
+def test_rigorous_bound_without_feedforward(motor):
+    arm = mp.builtin_arm("planar_3link")
+    m, kp, kd = {"paper": (mp.PAPER_MOTOR.with_gear_ratio(9.0), 400.0, 40.0),
+                 "servo": (mp.SERVO_MOTOR, 200.0, 5.0)}[motor]
+    opts = RoadmapOptions(arrival_tolerance=0.1)
+    Q0, Q1 = _random_edges(arm, 300, seed=1)
+    T, _ = opts.timing(Q0, Q1, arm.model.velocityLimit)
+    for ff in (False, True):
+        drive = mp.Drive(arm, m, kp=kp, kd=kd, feedforward=ff)
+        out = edge_outcomes(drive, Q0, Q1, T, opts.dt)
+        over, missed = feasibility(out, opts, arm.model)
+        ok = ~(over | missed)
+        assert ok.sum() >= 10
+        bound = EnergyBound(drive, arrival_tolerance=opts.arrival_tolerance, rigorous=True)
+        assert bound.proven and EnergyBound(drive).rigorous == (not ff)
+        lb = bound(Q0[ok], Q1[ok], T[ok])
+        assert np.all(lb <= out.energy[ok].sum(axis=1))

@@ -25,6 +25,9 @@ up to it; with Ke/Kt differing between joints the smallest ratio is used for the
 mechanical term, which is then not a proven bound either. :class:`EnergyBound`
 therefore says ``proven = False``, and the lazy planner checks every evaluated edge
 against its bound and corrects violations (:mod:`mpd_pin.planning.lazy`).
+``rigorous=True`` (the default for a drive without feed-forward, whose motion can lag
+far behind the reference) keeps only the proven terms: ρ (ΔPE + friction − margin)
+− Σ ½ L i(0)², a bound for every feasible edge when Ke/Kt is the same on all joints.
 """
 
 from __future__ import annotations
@@ -53,8 +56,12 @@ class EnergyBound:
     """
 
     def __init__(self, drive: Drive, *, arrival_tolerance: float = 0.01,
-                 moments: int = DEFAULT_MOMENTS, points: int = QUADRATURE_POINTS) -> None:
+                 moments: int = DEFAULT_MOMENTS, points: int = QUADRATURE_POINTS,
+                 rigorous: bool | None = None) -> None:
         self.drive = drive
+        #: only the proven terms: no copper estimate, the inductor at −½ L i(0)² (the
+        #: default without feed-forward, where the reference says little about the current)
+        self.rigorous = (not drive.feedforward) if rigorous is None else bool(rigorous)
         self.tol = float(arrival_tolerance)
         if int(moments) < 1:
             raise ValueError(f"moments must be ≥ 1, got {moments!r}")
@@ -72,8 +79,9 @@ class EnergyBound:
         self.rho = float(ratio.min())
         #: True when every joint has the same Ke/Kt (the mechanical term sums exactly)
         self.uniform_ratio = bool(np.allclose(ratio, ratio[0], rtol=1e-12, atol=0.0))
-        #: the bound is an estimate (tracking error), checked at run time
-        self.proven = False
+        #: True only for the rigorous terms with one Ke/Kt on every joint; otherwise the
+        #: bound is an estimate (tracking error), checked at run time
+        self.proven = self.rigorous and self.uniform_ratio
         self._gmax = _gravity_torque_bound(drive.arm.model)
 
     def describe(self) -> dict:
@@ -84,6 +92,7 @@ class EnergyBound:
             "current_moments": self.moments,
             "ke_over_kt": self.rho,
             "uniform_ke_over_kt": self.uniform_ratio,
+            "rigorous": self.rigorous,
             "proven": self.proven,
         }
 
@@ -96,12 +105,16 @@ class EnergyBound:
         T = np.asarray(durations, float)
         K, nq = Q0.shape
         DQ = Q1 - Q0
-        # ∫ i φ_j dt (A·√s), (moments, K, nq); Bessel: ∫ i² dt ≥ Σ_j (∫ i φ_j dt)²
-        charge = self._moments(Q0, DQ, T) / d.torque_per_amp
-        copper = d.R * (charge**2).sum(axis=0)
-        i0 = _gravity(d, Q0) / d.torque_per_amp
-        i1 = _gravity(d, Q1) / d.torque_per_amp
-        inductor = 0.5 * d.L * (i1**2 - i0**2)
+        i0 = _gravity(d, Q0) / d.torque_per_amp  # the initial holding current (exact)
+        if self.rigorous:  # ∫ R i² ≥ 0 and ½ L i(T)² ≥ 0
+            copper = np.zeros((K, nq))
+            inductor = -0.5 * d.L * i0**2
+        else:
+            # ∫ i φ_j dt (A·√s), (moments, K, nq); Bessel: ∫ i² dt ≥ Σ_j (∫ i φ_j dt)²
+            charge = self._moments(Q0, DQ, T) / d.torque_per_amp
+            copper = d.R * (charge**2).sum(axis=0)
+            i1 = _gravity(d, Q1) / d.torque_per_amp
+            inductor = 0.5 * d.L * (i1**2 - i0**2)
         pe = _potential(d, Q1) - _potential(d, Q0)
         move = np.maximum(np.abs(DQ) - self.tol, 0.0)
         friction = (d.damping * move**2).sum(axis=1) / T

@@ -164,13 +164,13 @@ def write_replay_html(
     roadmap, resolution = setup.roadmap, scn.options.resolution
     lines = {  # plans not followed (straight joint-space edges), then the motion
         f"end effector ({name})": ee_trace(
-            scn.arm, straight_line_configurations(roadmap, nodes, resolution)
+            scn.arm, straight_line_configurations(roadmap, nodes, resolution, scn.arm)
         )
         for name, nodes in plan.other_paths.items()
     }
     if shortest is not None:
         lines[f"end effector ({SHORTEST_LABEL})"] = ee_trace(
-            scn.arm, straight_line_configurations(roadmap, shortest.path, resolution)
+            scn.arm, straight_line_configurations(roadmap, shortest.path, resolution, scn.arm)
         )
     lines["end effector (travelled)"] = ee_trace(scn.arm, q_rep)  # drawn last: on top
     write_replay(
@@ -250,7 +250,7 @@ def result_record(
         "nodes": [int(n) for n in plan.path],
         "configurations": setup.roadmap.nodes[plan.path],
         "length_nodes": len(plan.path),
-        "length_rad": path_length(setup.roadmap, plan.path),
+        "length_rad": path_length(setup.roadmap, plan.path, scn.arm),
         "node_times": check.series["node_times"],
     }
     record["energy_per_joint"] = plan.energy
@@ -269,12 +269,12 @@ def _saved_percent(e_opt: float, e_short: float) -> float:
     return 100.0 * (1.0 - e_opt / e_short) if e_short != 0.0 else float("nan")
 
 
-def _path_entry(roadmap: Roadmap, nodes: list[int]) -> dict[str, Any]:
+def _path_entry(roadmap: Roadmap, nodes: list[int], arm=None) -> dict[str, Any]:
     energy = roadmap.path_energy(nodes)
     return {
         "nodes": [int(n) for n in nodes],
         "length_nodes": len(nodes),
-        "length_rad": path_length(roadmap, nodes),
+        "length_rad": path_length(roadmap, nodes, arm),
         "energy_per_joint": energy,
         "total_energy": float(energy.sum()),
     }
@@ -297,7 +297,7 @@ def comparison_record(
         basis = "hazard re-planned"
     else:
         basis = "planned"
-    entry = _path_entry(roadmap, shortest.path)
+    entry = _path_entry(roadmap, shortest.path, scn.arm)
     entry["energy_per_joint_simulate_edge"] = shortest_check.energy_per_joint
     entry["total_energy_simulate_edge"] = float(shortest_check.energy_per_joint.sum())
     e_opt = float(plan.energy.sum())
@@ -312,8 +312,8 @@ def comparison_record(
         ),
     }
     if plan.execution is not None and shortest.execution is not None:
-        opt0 = _path_entry(roadmap, plan.execution.initial_path)
-        short0 = _path_entry(roadmap, shortest.execution.initial_path)
+        opt0 = _path_entry(roadmap, plan.execution.initial_path, scn.arm)
+        short0 = _path_entry(roadmap, shortest.execution.initial_path, scn.arm)
         out["before_obstacle"] = {
             "optimal": opt0,
             "shortest_path": short0,

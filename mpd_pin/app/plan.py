@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ..arm import Arm
 from ..collision import CollisionChecker
 from ..dynamics import EnergyCost
 from ..dynamics.motor import Drive
@@ -97,25 +98,34 @@ def prepare(
     return Setup(drive, world, checker, roadmap, world.to_dict())
 
 
-def edge_lengths(roadmap: Roadmap) -> np.ndarray:
+def edge_lengths(roadmap: Roadmap, arm: Arm | None = None) -> np.ndarray:
     """(E,) joint-space length of every directed edge (rad): the Euclidean norm
-    ``‖q_dst − q_src‖₂`` (docs/design.md §7c)."""
-    return np.linalg.norm(roadmap.nodes[roadmap.dst] - roadmap.nodes[roadmap.src], axis=1)
+    ``‖q_dst − q_src‖₂`` (docs/design.md §7c), the shorter way round on the continuous
+    joints of ``arm`` (§1d)."""
+    Q0, Q1 = roadmap.nodes[roadmap.src], roadmap.nodes[roadmap.dst]
+    if arm is not None:
+        Q1 = arm.edge_target(Q0, Q1)
+    return np.linalg.norm(Q1 - Q0, axis=1)
 
 
-def path_length(roadmap: Roadmap, path: list[int]) -> float:
-    """Joint-space length of a node path (rad): Σ over its edges of ``‖Δq‖₂``."""
-    Q = roadmap.nodes[list(path)]
-    return float(np.linalg.norm(np.diff(Q, axis=0), axis=1).sum()) if len(path) > 1 else 0.0
+def path_length(roadmap: Roadmap, path: list[int], arm: Arm | None = None) -> float:
+    """Joint-space length of a node path (rad): Σ over its edges of ``‖Δq‖₂`` (the
+    shorter way round on the continuous joints of ``arm``, §1d)."""
+    if len(path) < 2:
+        return 0.0
+    Q0, Q1 = roadmap.nodes[list(path[:-1])], roadmap.nodes[list(path[1:])]
+    if arm is not None:
+        Q1 = arm.edge_target(Q0, Q1)
+    return float(np.linalg.norm(Q1 - Q0, axis=1).sum())
 
 
-def distance_roadmap(roadmap: Roadmap) -> Roadmap:
-    """A copy of ``roadmap`` (same nodes and edges) whose costs are the edge lengths (rad),
-    carried in the first column of ``energy`` (the others 0), so that ``graph()``, hazard
-    penalties and execution plan on distance. Only for planning: energies come from
-    ``roadmap``."""
+def distance_roadmap(roadmap: Roadmap, arm: Arm | None = None) -> Roadmap:
+    """A copy of ``roadmap`` (same nodes and edges) whose costs are the edge lengths (rad,
+    :func:`edge_lengths` with ``arm``), carried in the first column of ``energy`` (the
+    others 0), so that ``graph()``, hazard penalties and execution plan on distance. Only
+    for planning: energies come from ``roadmap``."""
     cost = np.zeros_like(np.asarray(roadmap.energy, dtype=float))
-    cost[:, 0] = edge_lengths(roadmap)
+    cost[:, 0] = edge_lengths(roadmap, arm)
     return replace(roadmap, energy=cost)
 
 
@@ -135,7 +145,7 @@ def plan_shortest(scn: EnergyScenario, setup: Setup) -> PlanResult:
     revealed = sorted(world.revealed)
     world.reset()
     try:
-        return _plan_on(scn, setup, distance_roadmap(setup.roadmap))
+        return _plan_on(scn, setup, distance_roadmap(setup.roadmap, setup.drive.arm))
     finally:
         world.reset()
         if revealed:

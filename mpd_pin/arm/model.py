@@ -337,7 +337,8 @@ class Arm:
     srdf_path: str | None = None
     urdf_xml: str | None = None
     q_reference: np.ndarray | None = None
-    #: joints that are ``continuous`` in the URDF, planned as revolute in [−π, π] rad
+    #: joints that are ``continuous`` in the URDF: angles in [−π, π] rad, edges the shorter
+    #: way round (docs/design.md §1d)
     continuous_joints: tuple[str, ...] = ()
     #: joints locked out of the model: name -> value (rad or m), as reported in result.json
     locked_joints: dict[str, float] = field(default_factory=dict)
@@ -538,6 +539,19 @@ class Arm:
     def joint_names(self) -> list[str]:
         """Names of the movable joints, in coordinate order."""
         return list(self.model.names)[1:]
+
+    @property
+    def continuous_mask(self) -> np.ndarray:
+        """(nq,) bool: True for the joints of :attr:`continuous_joints` (docs/design.md §1d)."""
+        return np.array([n in self.continuous_joints for n in self.joint_names], dtype=bool)
+
+    def edge_target(self, Q0, Q1) -> np.ndarray:
+        """Where the edge ``Q0 → Q1`` ends (rad; (nq,) or (K, nq)): ``Q1``, unwrapped to
+        ``Q0 + wrap(Q1 − Q0)`` on continuous joints, the shorter way round
+        (:func:`mpd_pin.arm.continuous.edge_target`, docs/design.md §1d)."""
+        from .continuous import edge_target
+
+        return edge_target(Q0, Q1, self.continuous_mask if self.continuous_joints else None)
 
     def fingerprint(self) -> str:
         """SHA-256 of everything that determines dynamics and collision geometry.

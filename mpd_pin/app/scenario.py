@@ -57,6 +57,7 @@ and runner (:func:`~mpd_pin.app.kinds.load_scenario` reads a file of any kind).
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from dataclasses import dataclass, field, replace
 from importlib import resources
@@ -67,14 +68,21 @@ import numpy as np
 
 from ..arm.model import Arm
 from ..dynamics.motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
-from ..dynamics.sizing import sized_motors
+from ..dynamics.sizing import check_holding, sized_motors
 from ..planning.roadmap import RoadmapOptions
 from ..search.registry import DEFAULT_PLANNER, PLANNERS
 from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
 from .arm_source import arm_from_table
 from .config import ConfigError, Table, check_array
 from .kinds import KINDS, scenario_kind
-from .limits import BOUNDS, Bound, position_bound, size_bound
+from .limits import (
+    BOUNDS,
+    Bound,
+    apply_joint_limits,
+    check_joint_limits,
+    position_bound,
+    size_bound,
+)
 
 __all__ = [
     "EnergyScenario",
@@ -191,16 +199,20 @@ def _motor_one(
         else:
             val = t.numbers(name)
             fields[name] = val if isinstance(val, float) else val[index]
+    j = index if index is not None else joint
+    label = "" if j is None else f" (joint {arm.joint_names[j]!r})"
     if fields.get("v_max", 1.0) <= 0:
-        raise ConfigError(f"{t.path}.v_max: must be > 0, got {fields['v_max']}")
+        raise ConfigError(f"{t.path}.v_max: must be > 0, got {fields['v_max']}{label}")
+    for name, val in fields.items():  # the physical ranges first (app/limits.py)
+        per_joint = index is not None and isinstance(t.data[name], list)
+        try:
+            BOUNDS[name].check(f"{t.path}.{name}" + (f"[{index}]" if per_joint else ""), val)
+        except ConfigError as exc:  # name the joint when the value is one joint's
+            raise ConfigError(f"{exc}{label if per_joint or joint is not None else ''}") from None
     try:
         motor = replace(base, **fields)
     except ValueError as exc:  # DCMotor's own checks (R > 0, B ≥ 0, ...)
-        joint = "" if index is None else f" (joint {index})"
-        raise ConfigError(f"{t.path}{joint}: {exc}") from None
-    for name, val in fields.items():  # then the physical ranges (app/limits.py)
-        per_joint = index is not None and isinstance(t.data[name], list)
-        BOUNDS[name].check(f"{t.path}.{name}" + (f"[{index}]" if per_joint else ""), val)
+        raise ConfigError(f"{t.path}{label}: {exc}") from None
     return motor
 
 
@@ -227,7 +239,7 @@ def _motors(top: Table, arm: Arm) -> DCMotor | list[DCMotor]:
     per_joint = []
     for name in MOTOR_CONSTANTS:
         if t.has(name) and isinstance(t.data[name], list):
-            val = t.numbers(name)
+            val = _per_joint_numbers(t, name, arm)
             if len(val) != nq:
                 raise ConfigError(
                     f"motor.{name}: expected one value or {nq} values (one per joint), "
@@ -241,6 +253,23 @@ def _motors(top: Table, arm: Arm) -> DCMotor | list[DCMotor]:
     motors = [_motor_one(t, arm, j) for j in range(nq)]
     t.done()
     return motors
+
+
+def _per_joint_numbers(t: Table, name: str, arm: Arm) -> list[float] | float:
+    """``t.numbers(name)``; an error about element ``[i]`` also names joint i."""
+    try:
+        return t.numbers(name)
+    except ConfigError as exc:
+        m = re.match(rf"{re.escape(t.path)}\.{name}\[(\d+)\]", str(exc))
+        if m is None or int(m.group(1)) >= arm.nq:
+            raise
+        raise ConfigError(f"{exc} (joint {arm.joint_names[int(m.group(1))]!r})") from None
+
+
+def _motor_tables(top: Table) -> list[dict]:
+    """The raw ``[motor]`` / ``[[motors]]`` tables (for a first look at their presets)."""
+    raw = [top.data.get("motor", {})] + list(top.data.get("motors", []) or [])
+    return [m for m in raw if isinstance(m, dict)]
 
 
 def _gain(t: Table, key: str, default: float, nq: int) -> float | list[float]:
@@ -422,15 +451,21 @@ def parse_energy_scenario(
     name = top.string("name", Path(source).stem if source else "scenario")
     description = top.string("description", "")
     arm = arm_from_table(top.table("arm", required=True), base_dir)
+    # [limits] (helper C): fill/override URDF velocity and effort limits, then refuse
+    # the joints whose limits the roadmap or the sized motors need but lack (§7b)
+    apply_joint_limits(top.table("limits"), arm)
+    options = _options(top.table("roadmap"))
+    if seed is not None:
+        options = replace(options, seed=int(seed))
+    sized = "sized" in {str(m.get("preset")) for m in _motor_tables(top)}
+    check_joint_limits(arm, velocity=options.velocity_limits or sized,
+                       effort=options.effort_limits or sized)
     motor = _motors(top, arm)
     ctl = top.table("controller")
     kp = _gain(ctl, "kp", 40.0, arm.nq)
     kd = _gain(ctl, "kd", 4.0, arm.nq)
     ff = ctl.boolean("feedforward", True)
     ctl.done()
-    options = _options(top.table("roadmap"))
-    if seed is not None:
-        options = replace(options, seed=int(seed))
     obstacles = []
     lim = _Lims.of(arm)
     for t in top.tables("obstacles"):
@@ -460,6 +495,12 @@ def parse_energy_scenario(
     goal = _endpoint(task, "goal", arm, world, ik_seed + 1)
     task.done()
     top.done()
+    holding = Drive(arm, motor, kp, kd, feedforward=ff)  # a motor too weak to hold (§3g)
+    for what, q in (("task.start", start), ("task.goal", goal)):
+        try:
+            check_holding(holding, q, what, effort_limits=options.effort_limits)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
     return EnergyScenario(
         name=name,
         description=description,

@@ -102,6 +102,25 @@ def _revolute_for_continuous(xml: str) -> tuple[str, tuple[str, ...]]:
     return etree.tostring(root, encoding="unicode"), tuple(names)
 
 
+def _zero_missing_limits(xml: str) -> str:
+    """Give a ``<limit>`` without ``effort`` or ``velocity`` the value 0 (urdfdom refuses
+    it otherwise): a zero limit is "not stated", which a scenario's ``[limits]`` table
+    can supply (docs/design.md §7b)."""
+    from lxml import etree
+
+    root = etree.fromstring(xml.encode("utf-8"))
+    changed = False
+    for limit in root.iter("limit"):
+        parent = limit.getparent()
+        if parent is None or parent.tag != "joint":
+            continue
+        for attr in ("effort", "velocity"):
+            if limit.get(attr) is None:
+                limit.set(attr, "0")
+                changed = True
+    return etree.tostring(root, encoding="unicode") if changed else xml
+
+
 def _rename_joints_named_like_links(xml: str) -> str:
     """Rename a joint that has the name of a link to ``<name>_joint``.
 
@@ -408,7 +427,7 @@ class Arm:
         _validate_urdf(xml, where)
         if _has_floating_joint(xml):
             raise ValueError(f"URDF in {where} has a floating joint: a floating base is not an arm")
-        xml, continuous = _revolute_for_continuous(xml)
+        xml, continuous = _revolute_for_continuous(_zero_missing_limits(xml))
         xml = _resolve_meshes(xml, path, dirs)
         try:
             model = pin.buildModelFromXML(xml)

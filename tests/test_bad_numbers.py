@@ -467,3 +467,29 @@ def test_weak_motor_refused_against_hand_gravity(tmp_path):
     # a little stronger: it parses (the start, hanging down, needs no torque at all)
     scn = load_scenario(str(_hand_scenario(tmp_path, limits, v_max=1.01 * g1 / 1.5)))
     assert np.abs(scn.arm.gravity(scn.goal))[0] == pytest.approx(g1, rel=1e-12)
+
+
+def test_no_path_message_counts_refused_edges(tmp_path):
+    """Edges too fast for the motors are refused (they do not arrive, or need more torque
+    than the effort limit); when no path is left the message counts them by reason."""
+    from mpd_pin.app.plan import prepare
+
+    limits = {"shoulder": {"velocity": 1.5, "effort": 30.0}, "elbow": {"velocity": 2.5,
+                                                                        "effort": 20.0}}
+    fast = {"velocity_limits": False, "duration": 0.1, "dt": 0.001}
+    path = _hand_scenario(tmp_path, limits, roadmap=fast, goal=(1.0, 0.5))
+    code, lines = _run_cli(path, tmp_path)
+    assert code == 3 and len(lines) == 1, lines
+    rm = prepare(load_scenario(str(path)), show_progress=False).roadmap  # the same build
+    counts = rm.edge_counts
+    refused = counts["refused_effort"] + counts["refused_arrival"]
+    assert refused > 0
+    assert lines[0].startswith("mpd-pin: no path: ")
+    assert (f"the roadmap refused {refused} of its {rm.num_edges + refused} collision-free "
+            "directed edges: ") in lines[0]
+    if counts["refused_effort"]:
+        assert f"{counts['refused_effort']} because the motor torque" in lines[0]
+    if counts["refused_arrival"]:
+        assert (f"{counts['refused_arrival']} because the simulated motion ended more than "
+                "0.01 rad from its end node") in lines[0]
+    assert 'preset = "sized"' in lines[0] and "longer edges" in lines[0]

@@ -29,6 +29,7 @@ from ..arm import Arm
 from ..collision import CollisionChecker
 from ..dynamics import EnergyCost
 from ..dynamics.motor import Drive
+from ..errors import NoPathError
 from ..planning.execution import ExecutionResult, execute
 from ..planning.hazards import HazardResult, plan_avoiding_hazards
 from ..planning.roadmap import Roadmap, build_roadmap
@@ -45,6 +46,7 @@ __all__ = [
     "edge_lengths",
     "path_length",
     "distance_roadmap",
+    "refusal_note",
 ]
 
 
@@ -132,8 +134,36 @@ def distance_roadmap(roadmap: Roadmap, arm: Arm | None = None) -> Roadmap:
 def plan_path(scn: EnergyScenario, setup: Setup) -> PlanResult:
     """Find the path of ``scn`` on ``setup.roadmap``: hazard re-planning first if the world
     has hazards with a clearance, then execution with sensing if it has hidden obstacles,
-    else one search."""
-    return _plan_on(scn, setup, setup.roadmap)
+    else one search. A NoPathError says how many edges the roadmap refused, and why
+    (:func:`refusal_note`)."""
+    try:
+        return _plan_on(scn, setup, setup.roadmap)
+    except NoPathError as exc:
+        note = refusal_note(setup.roadmap, scn.options.arrival_tolerance)
+        if not note:
+            raise
+        raise NoPathError(f"{exc}; {note}") from None
+
+
+def refusal_note(roadmap: Roadmap, tolerance: float) -> str:
+    """Why a roadmap may lack the edges a path needs: its counts of directed edges refused
+    for the effort limits and for not arriving (docs/design.md §4e), with what to try;
+    "" if none was refused."""
+    counts = roadmap.edge_counts or {}
+    effort, arrival = int(counts.get("refused_effort", 0)), int(counts.get("refused_arrival", 0))
+    if effort + arrival == 0:
+        return ""
+    total = roadmap.num_edges + effort + arrival
+    parts = []
+    if effort:
+        parts.append(f"{effort} because the motor torque n·Kt·i exceeded a joint's effort limit")
+    if arrival:
+        parts.append(f"{arrival} because the simulated motion ended more than {tolerance:g} rad "
+                     "from its end node")
+    return (f"the roadmap refused {effort + arrival} of its {total} collision-free directed "
+            f"edges: {' and '.join(parts)}; try motors that can follow the edges ([motor] preset "
+            '= "sized") or longer edges ([roadmap] duration, or duration_rule = "distance" '
+            "with a lower joint_speed)")
 
 
 def plan_shortest(scn: EnergyScenario, setup: Setup) -> PlanResult:

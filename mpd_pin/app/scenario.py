@@ -45,6 +45,9 @@ A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
     [sensor]
     range = 0.15               # m
 
+    [limits]                   # fill/override URDF joint limits (rad/s, N·m), by joint name
+    joint2 = { velocity = 2.0, effort = 30.0 }
+
     [task]
     start = [0.6, 0.3, 0.2]    # rad; or start_ee = [x, z] (planar) / [x, y, z], solved by IK
     goal = [2.4, -0.3, -0.2]

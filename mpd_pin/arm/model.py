@@ -403,8 +403,10 @@ class Arm:
         an ancestor folder of the file named ``NAME``, or ``ROS_PACKAGE_PATH``; a missing
         mesh is a ValueError naming the URI and the folders searched.
 
-        ``continuous`` joints are planned as revolute joints in [−π, π] rad
-        (:attr:`continuous_joints` lists them); a URDF with a ``floating`` joint is refused.
+        ``continuous`` joints are planned as revolute joints in [−π, π] rad, their edges
+        the shorter way round (:attr:`continuous_joints`, :meth:`edge_target`, §1d); a
+        ``<limit>`` without ``effort`` or ``velocity`` gets 0 there ("not stated", §7b);
+        a URDF with a ``floating`` joint is refused.
         ``strict_srdf=False`` ignores SRDF pairs naming links the URDF lacks (as Pinocchio
         does) instead of refusing the SRDF: used for the data example-robot-data ships.
 

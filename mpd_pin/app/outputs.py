@@ -3,8 +3,8 @@
 result.json (:func:`result_record`, written by :func:`~mpd_pin.app.results.write_json`,
 where every non-finite number is ``null``) holds:
 
-* ``scenario``, ``description``, ``arm``, ``joint_names``, ``planner``, ``start``, ``goal``
-  (rad), ``world`` (as given, before any reveal);
+* ``kind`` (``"energy"``), ``scenario``, ``description``, ``arm``, ``joint_names``,
+  ``planner``, ``start``, ``goal`` (rad), ``world`` (as given, before any reveal);
 * ``motor`` — one ``DCMotor`` or one per joint (``v_max: null`` — no voltage limit);
   ``controller`` — ``kp``, ``kd``, ``feedforward``; ``current_model`` — which current
   integration ran (``rk4``, ``exponential`` or both, per joint: docs/design.md §3e);
@@ -279,6 +279,7 @@ def result_record(
     ``comparison`` from :func:`comparison_record`, ``cache`` from :func:`cache_record`."""
     motor = scn.motor
     record: dict[str, Any] = {
+        "kind": scn.kind,
         "scenario": scn.name,
         "description": scn.description,
         "warnings": run_warnings(scn),

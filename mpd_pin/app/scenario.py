@@ -398,7 +398,7 @@ def _joint_bounds(arm: Arm) -> list[Bound]:
 def _ik_choice(t: Table, key: str, arm: Arm) -> dict[str, Any]:
     """``{key}_seed`` (a posture, rad: the IK starts there and returns the solution nearest
     to it), ``elbow`` (``"up"``/``"down"``) and ``elbow_joint`` of ``[task]`` (docs/design.md
-    §7b), as keyword arguments of :func:`~mpd_pin.arm.ik.solve_position_ik`."""
+    §7e), as keyword arguments of :func:`~mpd_pin.arm.ik.solve_position_ik`."""
     from ..arm.ik import ELBOW_SIDES
 
     seed = t.vector(f"{key}_seed", length=arm.nq, bound=_joint_bounds(arm)) if t.has(

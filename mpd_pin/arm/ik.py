@@ -1,7 +1,7 @@
 """Numerical position inverse kinematics (damped least squares with random restarts).
 
 Used to turn end-effector targets of scenario files into joint configurations
-(docs/design.md §7b). Which of several solutions is returned is chosen by a *seed
+(docs/design.md §7e). Which of several solutions is returned is chosen by a *seed
 posture* (the solution nearest to it: the general way to pick a branch on any arm) and,
 optionally, an *elbow* side (the elbow joint above or below the line from the shoulder to
 the target). An unreachable target is reported with its true distance to the workspace

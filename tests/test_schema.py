@@ -11,7 +11,7 @@ from pathlib import Path
 
 import jsonschema
 import pytest
-from conftest import read_result, run_cli
+from conftest import read_result, run_cli, validate_new_results
 
 from mpd_pin.app.results import result_schema, validate_result
 from mpd_pin.twolink.run import run_dynamic_scenario
@@ -148,3 +148,20 @@ def test_physical_numbers_state_their_unit():
     num_nodes = result_schema()["$defs"]["energy"]["properties"]["roadmap"]["properties"][
         "num_nodes"]["description"]
     assert "options.num_nodes" in num_nodes and "start" in num_nodes and "goal" in num_nodes
+
+
+def test_the_conftest_check_finds_a_bad_result_file(tmp_path, energy_result):
+    """The check every test gets (tests/conftest.py) fails on a result.json that does not
+    match, naming the file and the field, and passes a good one once."""
+    good, bad = tmp_path / "good", tmp_path / "bad"
+    good.mkdir()
+    bad.mkdir()
+    (good / "result.json").write_text(json.dumps(energy_result))
+    assert validate_new_results(good) == [good / "result.json"]
+    assert validate_new_results(good) == []  # already validated, unchanged
+    doc = copy.deepcopy(energy_result)
+    doc["path"]["node_times"] = "0 1 2 s"
+    (bad / "result.json").write_text(json.dumps(doc))
+    with pytest.raises(pytest.fail.Exception, match=r"bad/result.json .* at path/node_times"):
+        validate_new_results(bad)
+    (bad / "result.json").unlink()  # so the fixture's own check after this test passes

@@ -3,14 +3,17 @@
 result.json (:func:`result_record`, written by :func:`~mpd_pin.app.results.write_json`,
 where every non-finite number is ``null``) holds:
 
-* ``scenario``, ``description``, ``arm``, ``joint_names``, ``planner``, ``start``, ``goal``
-  (rad), ``world`` (as given, before any reveal);
+* ``kind`` (``"energy"``), ``scenario``, ``description``, ``arm``, ``joint_names``,
+  ``planner``, ``start``, ``goal`` (rad), ``world`` (as given, before any reveal);
 * ``motor`` — one ``DCMotor`` or one per joint (``v_max: null`` — no voltage limit);
   ``controller`` — ``kp``, ``kd``, ``feedforward``; ``current_model`` — which current
   integration ran (``rk4``, ``exponential`` or both, per joint: docs/design.md §3e);
-* ``roadmap`` — ``num_nodes``, ``num_edges``, ``edge_counts`` (directed candidates
-  lengthened for the velocity limits, refused for effort, refused for not arriving:
-  docs/design.md §4e), ``options`` (``RoadmapOptions``), ``key``;
+* ``warnings`` — one sentence per thing a reader should know before trusting the numbers
+  (:func:`run_warnings`: the paper's Table 7 motor, with a pointer to the README section);
+* ``roadmap`` — ``num_nodes`` (``options.num_nodes`` samples + start + goal), ``num_edges``,
+  ``edge_counts`` (directed candidates lengthened for the velocity limits, refused for
+  effort, refused for not arriving: docs/design.md §4e), ``options`` (``RoadmapOptions``),
+  ``key``, ``cache`` (``path`` of the roadmap file or ``null``, ``reused``: loaded from it);
 * ``hazard_replanning`` (``HazardResult.to_dict``: ``penalty: null`` — ∞, edges removed;
   ``penalty_floor: null`` — unused; margins ``null`` — no hazard), ``execution``
   (``ExecutionResult.to_dict``, energies unpenalised), when they ran;
@@ -32,6 +35,9 @@ where every non-finite number is ``null``) holds:
   ``roadmap_<name>`` and ``roadmap_total``; ``cpu_seconds_per_phase`` and
   ``cpu_seconds_total`` — CPU seconds of this process, all its threads
   (:class:`~mpd_pin.app.timing.PhaseClock`); ``outputs`` — the files beside result.json.
+
+Every field, with its unit, is in the JSON Schema ``mpd_pin/schemas/result.schema.json``
+(docs/design.md §7e).
 """
 
 from __future__ import annotations
@@ -43,6 +49,7 @@ from typing import Any
 import numpy as np
 
 from ..dynamics.current import current_model
+from ..dynamics.motor import PAPER_MOTOR, DCMotor
 from ..planning.roadmap import Roadmap
 from .plan import PlanResult, Setup, path_length
 from .results import to_jsonable, write_json
@@ -59,7 +66,48 @@ __all__ = [
     "comparison_record",
     "write_result",
     "SHORTEST_LABEL",
+    "PAPER_MOTOR_SECTION",
+    "run_warnings",
+    "cache_record",
 ]
+
+#: The README.md section (its heading) that explains the energies of the paper's motor;
+#: the warning of :func:`run_warnings` points to it.
+PAPER_MOTOR_SECTION = "Energies with the paper's motor"
+
+#: The constants that make a motor "the paper's Table 7 motor" (any gear ratio, v_max).
+_PAPER_CONSTANTS = ("R", "Kt", "Ke", "B")
+
+
+def _is_paper_motor(motor: DCMotor) -> bool:
+    return all(getattr(motor, c) == getattr(PAPER_MOTOR, c) for c in _PAPER_CONSTANTS)
+
+
+def run_warnings(scn: EnergyScenario) -> list[str]:
+    """The ``warnings`` of result.json (one sentence each, also printed by ``mpd-pin run``;
+    docs/design.md §7e): today one, when some joint is driven by the paper's Table 7 motor
+    (R = 1 Ω, Kt = 0.01 N·m/A, Ke = 0.02 V·s/rad, B = 0.1 N·m·s/rad, any gear ratio), whose
+    constants make planar-arm moves cost 10⁴–10⁵ J."""
+    motors = scn.motor if isinstance(scn.motor, list) else [scn.motor] * scn.arm.nq
+    joints = [n for n, m in zip(scn.arm.joint_names, motors, strict=True) if _is_paper_motor(m)]
+    if not joints:
+        return []
+    which = "every joint" if len(joints) == len(motors) else "joint(s) " + ", ".join(joints)
+    return [
+        f"the paper's Table 7 motor (Kt = 0.01 N·m/A, R = 1 Ω, B = 0.1 N·m·s/rad) drives "
+        f"{which}: its constants, not the planner, make energies of 10⁴–10⁵ J for a small arm; "
+        f'see README.md section "{PAPER_MOTOR_SECTION}" ([motor] preset = "sized" gives '
+        f"realistic motors)"
+    ]
+
+
+def cache_record(cache: Path | None, reused: bool) -> dict[str, Any]:
+    """``roadmap.cache`` of result.json: the roadmap file (``null``: none) and whether the
+    roadmap was loaded from it (``reused``) rather than built (and saved to it)."""
+    from ..planning.roadmap import npz_path
+
+    return {"path": str(npz_path(cache)) if cache is not None else None,
+            "reused": bool(reused and cache is not None)}
 
 #: Label of the shortest joint-space path in the plots and the replay.
 SHORTEST_LABEL = "shortest joint-space path"
@@ -192,13 +240,16 @@ def write_replay_html(
     }
 
 
-def _roadmap_record(scn: EnergyScenario, roadmap: Roadmap) -> dict[str, Any]:
+def _roadmap_record(
+    scn: EnergyScenario, roadmap: Roadmap, cache: dict[str, Any] | None
+) -> dict[str, Any]:
     return {
-        "num_nodes": roadmap.num_nodes,
+        "num_nodes": roadmap.num_nodes,  # options.num_nodes samples + start + goal
         "num_edges": roadmap.num_edges,
         "edge_counts": dict(roadmap.edge_counts),  # lengthened / refused directed candidates
         "options": asdict(scn.options),
         "key": roadmap.key,
+        "cache": cache if cache is not None else cache_record(None, False),
     }
 
 
@@ -222,20 +273,23 @@ def result_record(
     replay: dict[str, Any] | None,
     clock: PhaseClock,
     comparison: dict[str, Any] | None = None,
+    cache: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The content of result.json (see the module docstring), not yet encoded;
-    ``comparison`` from :func:`comparison_record`."""
+    ``comparison`` from :func:`comparison_record`, ``cache`` from :func:`cache_record`."""
     motor = scn.motor
     record: dict[str, Any] = {
+        "kind": scn.kind,
         "scenario": scn.name,
         "description": scn.description,
+        "warnings": run_warnings(scn),
         "arm": scn.arm.name,
         "joint_names": scn.arm.joint_names,
         "locked_joints": scn.arm.locked_joints,
         "motor": [asdict(m) for m in motor] if isinstance(motor, list) else asdict(motor),
         "controller": {"kp": scn.kp, "kd": scn.kd, "feedforward": scn.feedforward},
         "current_model": current_model(setup.drive, scn.options.dt),
-        "roadmap": _roadmap_record(scn, setup.roadmap),
+        "roadmap": _roadmap_record(scn, setup.roadmap, cache),
         "planner": scn.planner,
         "start": scn.start,
         "goal": scn.goal,

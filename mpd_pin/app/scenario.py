@@ -51,6 +51,9 @@ A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
     [task]
     start = [0.6, 0.3, 0.2]    # rad; or start_ee = [x, z] (planar) / [x, y, z], solved by IK
     goal = [2.4, -0.3, -0.2]
+    # with start_ee / goal_ee, which IK solution: start_seed = [...] / goal_seed = [...]
+    # (rad: the solution nearest to this posture), elbow = "up" | "down" (the elbow joint
+    # above or below the shoulder-target line; elbow_joint = "name", default the 2nd joint)
 
 Scenarios of ``kind = "dynamic2link"`` (paper 002) are read by
 :mod:`mpd_pin.twolink.scenario`; :mod:`mpd_pin.app.kinds` maps each kind to its parser
@@ -419,16 +422,39 @@ def _shape(t: Table, lim: _Lims):
     return shape
 
 
+def _joint_bounds(arm: Arm) -> list[Bound]:
+    return [Bound(float(lo) - 1e-9, float(hi) + 1e-9, "", f"the limits of joint {n!r}")
+            for n, lo, hi in zip(arm.joint_names, arm.lower_limits, arm.upper_limits, strict=True)]
+
+
+def _ik_choice(t: Table, key: str, arm: Arm) -> dict[str, Any]:
+    """``{key}_seed`` (a posture, rad: the IK starts there and returns the solution nearest
+    to it), ``elbow`` (``"up"``/``"down"``) and ``elbow_joint`` of ``[task]`` (docs/design.md
+    §7e), as keyword arguments of :func:`~mpd_pin.arm.ik.solve_position_ik`."""
+    from ..arm.ik import ELBOW_SIDES
+
+    seed = t.vector(f"{key}_seed", length=arm.nq, bound=_joint_bounds(arm)) if t.has(
+        f"{key}_seed") else None
+    elbow = t.string("elbow", None, choices=ELBOW_SIDES) if t.has("elbow") else None
+    joint = None
+    if t.has("elbow_joint"):
+        joint = t.string("elbow_joint", choices=tuple(arm.joint_names))
+        if elbow is None:
+            raise ConfigError(f"{t.path}.elbow_joint: give elbow = \"up\" or \"down\" with it")
+    return {"seed_posture": None if seed is None else np.array(seed), "elbow": elbow,
+            "elbow_joint": joint}
+
+
 def _endpoint(t: Table, key: str, arm: Arm, world: World, ik_seed: int) -> np.ndarray:
     from ..arm.ik import solve_position_ik
 
     if t.has(key) and t.has(f"{key}_ee"):
         raise ConfigError(f"{t.path}: give {key} or {key}_ee, not both")
     if t.has(key):
-        names = arm.joint_names
-        bounds = [Bound(float(lo) - 1e-9, float(hi) + 1e-9, "", f"the limits of joint {n!r}")
-                  for n, lo, hi in zip(names, arm.lower_limits, arm.upper_limits, strict=True)]
-        return np.array(t.vector(key, length=arm.nq, bound=bounds))
+        if t.has(f"{key}_seed"):
+            raise ConfigError(f"{t.path}.{key}_seed: a seed posture is for {key}_ee (IK); "
+                              f"{key} already gives the joint angles")
+        return np.array(t.vector(key, length=arm.nq, bound=_joint_bounds(arm)))
     raw = t.raw(f"{key}_ee")
     if not isinstance(raw, list) or len(raw) not in (2, 3):
         raise ConfigError(f"{t.path}.{key}_ee: expected [x, z] or [x, y, z]")
@@ -437,8 +463,10 @@ def _endpoint(t: Table, key: str, arm: Arm, world: World, ik_seed: int) -> np.nd
     if len(target) == 2:
         target = [target[0], 0.0, target[1]]
     frame = t.string("ee_frame", "ee" if arm.model.existFrame("ee") else arm.model.frames[-1].name)
+    choice = _ik_choice(t, key, arm)
     try:
-        return solve_position_ik(arm, frame, np.array(target), world=world, seed=ik_seed)
+        return solve_position_ik(arm, frame, np.array(target), world=world, seed=ik_seed,
+                                 **choice)
     except ValueError as exc:
         raise ConfigError(f"{t.path}.{key}_ee: {exc}") from None
 
@@ -496,6 +524,9 @@ def parse_energy_scenario(
     ik_seed = task.integer("ik_seed", 0, minimum=0, maximum=LIMITS["seed"] - 1)
     start = _endpoint(task, "start", arm, world, ik_seed)
     goal = _endpoint(task, "goal", arm, world, ik_seed + 1)
+    if task.has("elbow") and not (task.has("start_ee") or task.has("goal_ee")):
+        raise ConfigError(f"{task.path}.elbow: chooses the IK solution of start_ee/goal_ee; "
+                          "start and goal are given as joint angles")
     task.done()
     top.done()
     holding = Drive(arm, motor, kp, kd, feedforward=ff)  # a motor too weak to hold (§3g)

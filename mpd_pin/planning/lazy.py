@@ -54,6 +54,7 @@ def evaluate_edges(
         return np.zeros(0, dtype=bool)
     model = cost.drive.arm.model
     nodes = roadmap.nodes
+    # the shorter way round on continuous joints is taken inside outcomes (§1d)
     out = cost.outcomes(nodes[roadmap.src[ids]], nodes[roadmap.dst[ids]],
                         roadmap.durations[ids], progress=progress)
     over, missed = feasibility(out, options, model)
@@ -64,6 +65,13 @@ def evaluate_edges(
     counts["refused_effort"] = counts.get("refused_effort", 0) + int(over.sum())
     counts["refused_arrival"] = counts.get("refused_arrival", 0) + int((missed & ~over).sum())
     return refused
+
+
+def _target(cost, Q0: np.ndarray, Q1: np.ndarray) -> np.ndarray:
+    """Where the edges Q0 → Q1 end: the shorter way round on continuous joints (§1d)."""
+    arm = getattr(getattr(cost, "drive", None), "arm", None)
+    target = getattr(arm, "edge_target", None)
+    return target(Q0, Q1) if callable(target) else np.asarray(Q1, dtype=float)
 
 
 @dataclass
@@ -93,8 +101,9 @@ class LazyEdges:
             cost.drive, arrival_tolerance=options.arrival_tolerance)
         rm = roadmap
         t0 = time.perf_counter()
-        self.lower = np.asarray(self.bound(rm.nodes[rm.src], rm.nodes[rm.dst], rm.durations),
-                                dtype=float)
+        Q0 = rm.nodes[rm.src]
+        self._Q1 = _target(cost, Q0, rm.nodes[rm.dst])  # shorter way round (§1d)
+        self.lower = np.asarray(self.bound(Q0, self._Q1, rm.durations), dtype=float)
         self.bound_seconds = time.perf_counter() - t0
         if self.lower.shape != (rm.num_edges,) or not np.all(np.isfinite(self.lower)
                                                               & (self.lower >= 0)):
@@ -148,7 +157,7 @@ class LazyEdges:
         """Joint-space lengths (rad), ∞ where refused (docs/design.md §7c)."""
         rm = self.roadmap
         ids = np.arange(rm.num_edges) if ids is None else np.asarray(ids)
-        out = np.linalg.norm(rm.nodes[rm.dst[ids]] - rm.nodes[rm.src[ids]], axis=1)
+        out = np.linalg.norm(self._Q1[ids] - rm.nodes[rm.src[ids]], axis=1)
         out[self.refused[ids]] = math.inf
         return out
 

@@ -189,6 +189,7 @@ def write_replay_html(
         out_dir / "replay.html",
         reveal_times=reveal,
         paths=lines,
+        grow=["end effector (travelled)"],  # grows with the motion; the plans are drawn whole
         title=scn.name,
     )
     return {

@@ -426,6 +426,8 @@ def plot_arm_path(
     title: str = "",
     node_times: Sequence[float] | None = None,
     detections: Sequence[Detection] = (),
+    start: np.ndarray | None = None,
+    goal: np.ndarray | None = None,
 ):
     """The arm at each path node over the world, with the end-effector trace (docs/design.md §7c).
 
@@ -435,8 +437,9 @@ def plot_arm_path(
     the trace; ``other_paths`` name → (k, nq) node configurations of paths drawn for
     comparison (e.g. the path before re-planning); ``detections`` where hidden obstacles were
     revealed (marked and annotated with the time). The end effector's start and goal are
-    marked; hazards' clearance bands are drawn (planar). Planar arms: axis limits contain
-    the arm's reach (:func:`chain_reach`), every obstacle and every band.
+    marked — at ``start``/``goal`` (rad) if given (a figure of part of a path), else at the
+    first and last node; hazards' clearance bands are drawn (planar). Planar arms: axis
+    limits contain the arm's reach (:func:`chain_reach`), every obstacle and every band.
     """
     import matplotlib.pyplot as plt
     from matplotlib.cm import ScalarMappable
@@ -455,7 +458,9 @@ def plot_arm_path(
     else:
         ax = fig.add_subplot(projection="3d")
         _draw_3d(ax, arm, world, Q_nodes, trace, others, colors)
-    ends = arm_points(arm, Q_nodes[0])[-1], arm_points(arm, Q_nodes[-1])[-1]
+    q0 = Q_nodes[0] if start is None else np.asarray(start, float)
+    q1 = Q_nodes[-1] if goal is None else np.asarray(goal, float)
+    ends = arm_points(arm, q0)[-1], arm_points(arm, q1)[-1]
     _mark_ends(ax, *ends, planar)
     _mark_detections(ax, arm, detections, planar)
     cbar = fig.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.7, pad=0.02)

@@ -465,7 +465,10 @@ def plot_arm_path(
     _mark_detections(ax, arm, detections, planar)
     cbar = fig.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.7, pad=0.02)
     cbar.set_label(cbar_label)
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=2, fontsize="small")
+    if planar:  # below the axes; 3-D: in its upper left corner (the view leaves room there)
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=2, fontsize="small")
+    else:
+        ax.legend(loc="upper left", fontsize="small")
     ax.set_title(title or f"{arm.name}: path of {len(Q_nodes)} nodes")
     fig.tight_layout()
     return fig

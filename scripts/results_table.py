@@ -16,6 +16,11 @@ seconds. Paper-002 scenarios: path lengths, motion samples, stop and backward
 events, the command's wall-clock total and the CPU seconds of the mpd-pin
 process measured here (``resource.getrusage(RUSAGE_CHILDREN)``, imports
 included). The last line names the machine.
+
+Each paper-000 case (case1–case4, Table 7 motor behind 9:1) is also run with the
+``sized`` motors (docs/design.md §3g) — the same scenario with its ``[motor]`` table
+replaced by ``preset = "sized"`` (written to ``OUT/NAME_sized.toml``) — and printed as
+the row ``NAME (sized)`` beside it; ``--no-sized`` skips these runs.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import argparse
 import json
 import os
 import platform
+import re
 import resource
 import subprocess
 import sys
@@ -87,30 +93,57 @@ def dynamic_row(name: str, r: dict, process_cpu: float) -> str:
     )
 
 
+#: Paper-000 cases also run with the sized motors.
+PAPER_CASES = ("case1", "case2", "case3", "case4")
+
+
+def sized_variant(name: str, out_dir: Path) -> Path:
+    """``OUT/NAME_sized.toml``: the built-in scenario ``name`` with its ``[motor]`` table
+    replaced by ``preset = "sized"`` (everything else, comments included, as it is)."""
+    text = builtin_scenarios()[name].read_text(encoding="utf-8")
+    motor = re.compile(r"^\[motor\][^\n]*\n(?:(?!\[).*\n)*", re.M)
+    if not motor.search(text):
+        raise SystemExit(f"{name}: no [motor] table to replace")
+    text = motor.sub('[motor]            # sized from the URDF limits (docs/design.md §3g)\n'
+                     'preset = "sized"\n\n', text, count=1)
+    text = re.sub(r'^name = "([^"]*)"', r'name = "\1_sized"', text, count=1, flags=re.M)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / f"{name}_sized.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("names", nargs="*")
     ap.add_argument("--out", default="out")
+    ap.add_argument("--no-sized", action="store_true",
+                    help="skip the runs of case1-4 with the sized motors")
     args = ap.parse_args()
     names = args.names or list(builtin_scenarios())
+    runs = []  # (row label, scenario argument, output folder, kind)
+    for name in names:
+        kind = load_scenario_data(builtin_scenarios()[name]).get("kind", "energy")
+        runs.append((name, name, Path(args.out) / name, kind))
+        if name in PAPER_CASES and not args.no_sized:
+            variant = sized_variant(name, Path(args.out))
+            runs.append((f"{name} (sized)", str(variant), Path(args.out) / f"{name}_sized", kind))
     energy_rows, dynamic_rows = [], []
     failed = 0
-    for name in names:
-        out = Path(args.out) / name
+    for label, scenario, out, kind in runs:
         cpu0 = _child_cpu()
-        res = subprocess.run([sys.executable, "-m", "mpd_pin", "run", name, "--out", str(out),
-                              "--quiet"], capture_output=True, text=True)
+        res = subprocess.run([sys.executable, "-m", "mpd_pin", "run", scenario, "--out",
+                              str(out), "--quiet"], capture_output=True, text=True)
         process_cpu = _child_cpu() - cpu0
         if res.returncode != 0:
-            print(f"{name}: FAILED: {res.stderr.strip()}", file=sys.stderr)
+            print(f"{label}: FAILED: {res.stderr.strip()}", file=sys.stderr)
             failed += 1
             continue
         r = json.loads((out / "result.json").read_text())
-        kind = load_scenario_data(builtin_scenarios()[name]).get("kind", "energy")
         if kind == "energy":
-            energy_rows.append(energy_row(name, r))
+            energy_rows.append(energy_row(label, r))
         else:
-            dynamic_rows.append(dynamic_row(name, r, process_cpu))
+            dynamic_rows.append(dynamic_row(label, r, process_cpu))
     if energy_rows:
         print("| scenario | arm | E⁺ per joint (J) | total (J) | path nodes | path (rad) | "
               "shortest path E⁺ (J) | shortest nodes | shortest (rad) | saved (%) | "

@@ -99,6 +99,15 @@ def _motors_tables(data):
     return data
 
 
+def _motors_tables_kt(kt):
+    def apply(data):
+        data.pop("motor")
+        data["motors"] = [{"preset": "paper", "gear_ratio": 9.0} for _ in range(3)]
+        data["motors"][1]["Kt"] = kt
+        return data
+    return apply
+
+
 def _static_disc(data):
     data["obstacles"] = [{"name": "c", "radius": 0.1, "motion": "static", "center": [NAN, 0.5]}]
     return data
@@ -162,6 +171,34 @@ BAD = {
     "motor L 1e308": ("panda", _set("motor.L", 1e308), "motor.L = 1e+308 H"),
     "motor v_max inf": ("panda", _set("motor.v_max", INF), "motor.v_max"),
     "motors table J": ("case1", _motors_tables, "motors[0].J = 1e+308 kg·m²"),
+    # negative or NaN motor constants of one joint name that joint (issue 12)
+    "motor R negative per joint": ("case1", _set("motor.R", [1.0, -1.0, 1.0]),
+                                   "motor.R[1] = -1 Ω is outside the motor resistance range"
+                                   " [1e-06, 10000] Ω (joint 'joint2')"),
+    "motor B nan per joint": ("case1", _set("motor.B", [0.1, 0.1, NAN]),
+                              "motor.B[2] = nan is not a finite number"),
+    "motor B nan names joint": ("case1", _set("motor.B", [0.1, 0.1, NAN]), "(joint 'joint3')"),
+    "motor Kt negative": ("case1", _set("motor.Kt", -0.01),
+                          "motor.Kt = -0.01 N·m/A is outside the torque constant range"),
+    "motors table Kt negative": ("case1", _motors_tables_kt(-0.01),
+                                 "motors[1].Kt = -0.01 N·m/A is outside the torque constant "
+                                 "range [1e-06, 100] N·m/A (joint 'joint2')"),
+    # a motor too weak to hold the arm at the start (stall torque n·Kt·V_max/R)
+    "weak motor at start": ("case1", _set("motor.v_max", 1.0),
+                            "task.start: the motor of joint 'joint1' is too weak to hold the arm"
+                            " there: gravity needs "),
+    "holding above effort limit": ("ur5", _set("limits", {"shoulder_lift_joint": {"effort": 10.0}}),
+                                   "task.start: holding the arm there needs 23.25 N·m at joint "
+                                   "'shoulder_lift_joint', above its effort limit of 10 N·m"),
+    "limits unknown joint": ("ur5", _set("limits", {"elbow": {"effort": 10.0}}),
+                             "limits.elbow: the arm has no movable joint 'elbow'"),
+    "limits velocity nan": ("ur5", _set("limits", {"elbow_joint": {"velocity": NAN}}),
+                            "limits.elbow_joint.velocity = nan is not a finite number"),
+    "limits effort negative": ("ur5", _set("limits", {"elbow_joint": {"effort": -5.0}}),
+                               "limits.elbow_joint.effort = -5 N·m is outside the joint effort "
+                               "limit range (0, 100000] N·m"),
+    "limits unknown key": ("ur5", _set("limits", {"elbow_joint": {"speed": 1.0}}),
+                           "limits.elbow_joint"),
     "kp per joint nan": ("case1", _set("controller.kp", [40.0, NAN, 40.0]),
                          "controller.kp[1] = nan"),
     "kd 1e308": ("case1", _set("controller.kd", 1e308),
@@ -323,3 +360,136 @@ def test_local_divergence_detection_still_works_under_the_cli_errstate():
     with np.errstate(over="raise", invalid="raise", divide="raise"):
         with pytest.raises(ValueError, match="integration diverged"):
             simulate_edge(drive, np.zeros(2), np.array([1.0, -1.0]), 1.0, 0.05)
+
+
+# ---------------------------------------------------------------- [limits] and weak motors
+HAND_URDF = """<robot name="hand">
+<link name="base"/>
+<link name="l1"><inertial><origin xyz="0.25 0 0"/><mass value="1"/>
+<inertia ixx="0.001" iyy="0.021" izz="0.021" ixy="0" ixz="0" iyz="0"/></inertial>
+<collision><origin xyz="0.25 0 0" rpy="0 1.5708 0"/>
+<geometry><cylinder radius="0.03" length="0.4"/></geometry></collision></link>
+<link name="l2"><inertial><origin xyz="0.25 0 0"/><mass value="1"/>
+<inertia ixx="0.001" iyy="0.021" izz="0.021" ixy="0" ixz="0" iyz="0"/></inertial>
+<collision><origin xyz="0.25 0 0" rpy="0 1.5708 0"/>
+<geometry><cylinder radius="0.03" length="0.4"/></geometry></collision></link>
+<joint name="shoulder" type="revolute"><parent link="base"/><child link="l1"/>
+<axis xyz="0 -1 0"/><limit lower="-3.1" upper="3.1"/></joint>
+<joint name="elbow" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.5 0 0"/>
+<axis xyz="0 -1 0"/><limit lower="-3.1" upper="3.1" effort="0" velocity="0"/></joint>
+</robot>
+"""
+
+
+def _hand_scenario(tmp_path, limits=None, roadmap=None, v_max=24.0, goal=(0.0, 0.0)):
+    (tmp_path / "hand.urdf").write_text(HAND_URDF)
+    data = {
+        "name": "hand",
+        "arm": {"urdf": "hand.urdf"},
+        "motor": {"preset": "servo", "v_max": v_max},
+        "controller": {"kp": 40.0, "kd": 1.0},
+        "roadmap": {"num_nodes": 12, "k": 4, "seed": 0, "duration": 0.5, **(roadmap or {})},
+        "task": {"start": [-1.5707963267948966, 0.0], "goal": list(goal)},
+    }
+    if limits is not None:
+        data["limits"] = limits
+    path = tmp_path / "hand.toml"
+    path.write_text(to_toml(data))
+    return path
+
+
+def _run_cli(path, tmp_path):
+    res = subprocess.run([sys.executable, "-m", "mpd_pin", "run", str(path), "--out",
+                          str(tmp_path / "out"), "--quiet"], capture_output=True, text=True,
+                         timeout=300)
+    return res.returncode, res.stderr.splitlines()
+
+
+def test_missing_urdf_limits_are_refused_unless_the_scenario_gives_them(tmp_path):
+    """A hand-written URDF without effort/velocity (shoulder) or with zeros (elbow): one
+    line naming the joint and the [limits] entry to add; the table fills them."""
+    code, lines = _run_cli(_hand_scenario(tmp_path), tmp_path)
+    assert code == 2 and len(lines) == 1, lines
+    assert lines[0] == ("mpd-pin: error: arm: joint 'shoulder' has no velocity limit in its "
+                        "URDF (0 rad/s); add it to the scenario: [limits] shoulder = "
+                        "{ velocity = ... } (rad/s)")
+    code, lines = _run_cli(_hand_scenario(tmp_path, {"shoulder": {"velocity": 2.0,
+                                                                  "effort": 30.0}}), tmp_path)
+    assert code == 2 and len(lines) == 1 and "joint 'elbow' has no velocity limit" in lines[0]
+    code, lines = _run_cli(_hand_scenario(tmp_path, {"shoulder": {"velocity": 2.0},
+                                                     "elbow": {"velocity": 3.0, "effort": 20.0}}),
+                           tmp_path)
+    assert code == 2 and len(lines) == 1 and "joint 'shoulder' has no effort limit" in lines[0]
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+    # without the rules that need them, zero limits are not refused
+    scn = load_scenario(str(_hand_scenario(tmp_path, roadmap={"velocity_limits": False,
+                                                              "effort_limits": False})))
+    assert scn.arm.model.velocityLimit.tolist() == [0.0, 0.0]
+
+
+def test_limits_table_fills_and_overrides_urdf_limits(tmp_path):
+    from mpd_pin.app.plan import prepare
+
+    limits = {"shoulder": {"velocity": 1.5, "effort": 30.0}, "elbow": {"velocity": 2.5,
+                                                                        "effort": 20.0}}
+    scn = load_scenario(str(_hand_scenario(tmp_path, limits)))
+    np.testing.assert_array_equal(scn.arm.model.velocityLimit, [1.5, 2.5])
+    np.testing.assert_array_equal(scn.arm.model.effortLimit, [30.0, 20.0])
+    setup = prepare(scn, show_progress=False)
+    rm = setup.roadmap
+    assert rm.num_edges > 0
+    dq = np.abs(rm.nodes[rm.dst] - rm.nodes[rm.src])
+    need = np.max(1.875 * dq / np.array([1.5, 2.5]), axis=1)  # quintic peak ≤ the limit
+    assert np.all(rm.durations >= need - 1e-12)
+    assert rm.edge_counts["lengthened_for_velocity"] > 0
+    # an override of a URDF's own limit (the planar arms state 10 rad/s, 100 N·m)
+    data = builtin("case1")
+    data["limits"] = {"joint2": {"velocity": 0.5}}
+    scn = _parse(data, tmp_path)
+    np.testing.assert_array_equal(scn.arm.model.velocityLimit, [10.0, 0.5, 10.0])
+    np.testing.assert_array_equal(scn.arm.model.effortLimit, [100.0, 100.0, 100.0])
+    assert scn.arm.fingerprint() != builtin_arm("planar_3link").fingerprint()
+
+
+def test_weak_motor_refused_against_hand_gravity(tmp_path):
+    """Gravity of the horizontal 2-link arm by hand: G₁ = g·(m₁·l₁/2 + m₂·(l₁ + l₂/2)) =
+    9.81 N·m; the servo's stall torque n·Kt·V/R = 100·0.03·V/2 = 1.5·V N·m."""
+    g1 = 9.81 * (1.0 * 0.25 + 1.0 * 0.75)
+    limits = {"shoulder": {"velocity": 1.5, "effort": 30.0}, "elbow": {"velocity": 2.5,
+                                                                        "effort": 20.0}}
+    v_weak = 0.99 * g1 / 1.5
+    code, lines = _run_cli(_hand_scenario(tmp_path, limits, v_max=v_weak), tmp_path)
+    assert code == 2 and len(lines) == 1, lines
+    assert lines[0].startswith(
+        f"mpd-pin: error: task.goal: the motor of joint 'shoulder' is too weak to hold the arm "
+        f"there: gravity needs {g1:.4g} N·m, its stall torque n·Kt·V_max/R is "
+        f"{1.5 * v_weak:.4g} N·m"), lines[0]
+    # a little stronger: it parses (the start, hanging down, needs no torque at all)
+    scn = load_scenario(str(_hand_scenario(tmp_path, limits, v_max=1.01 * g1 / 1.5)))
+    assert np.abs(scn.arm.gravity(scn.goal))[0] == pytest.approx(g1, rel=1e-12)
+
+
+def test_no_path_message_counts_refused_edges(tmp_path):
+    """Edges too fast for the motors are refused (they do not arrive, or need more torque
+    than the effort limit); when no path is left the message counts them by reason."""
+    from mpd_pin.app.plan import prepare
+
+    limits = {"shoulder": {"velocity": 1.5, "effort": 30.0}, "elbow": {"velocity": 2.5,
+                                                                        "effort": 20.0}}
+    fast = {"velocity_limits": False, "duration": 0.1, "dt": 0.001}
+    path = _hand_scenario(tmp_path, limits, roadmap=fast, goal=(1.0, 0.5))
+    code, lines = _run_cli(path, tmp_path)
+    assert code == 3 and len(lines) == 1, lines
+    rm = prepare(load_scenario(str(path)), show_progress=False).roadmap  # the same build
+    counts = rm.edge_counts
+    refused = counts["refused_effort"] + counts["refused_arrival"]
+    assert refused > 0
+    assert lines[0].startswith("mpd-pin: no path: ")
+    assert (f"the roadmap refused {refused} of its {rm.num_edges + refused} collision-free "
+            "directed edges: ") in lines[0]
+    if counts["refused_effort"]:
+        assert f"{counts['refused_effort']} because the motor torque" in lines[0]
+    if counts["refused_arrival"]:
+        assert (f"{counts['refused_arrival']} because the simulated motion ended more than "
+                "0.01 rad from its end node") in lines[0]
+    assert 'preset = "sized"' in lines[0] and "longer edges" in lines[0]

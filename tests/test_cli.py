@@ -3,13 +3,12 @@
 import dataclasses
 import json
 import math
-import subprocess
-import sys
 import textwrap
 
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import _no_constant, read_result, run_cli
 from replay_helpers import animation_clips, decode_commands, screenshots, track
 
 import mpd_pin as mp
@@ -20,20 +19,6 @@ from mpd_pin.world import World
 
 ENERGY_SCENARIOS = [n for n, p in builtin_scenarios().items()
                     if load_scenario_data(p).get("kind", "energy") == "energy"]
-
-
-def _no_constant(name):
-    raise ValueError(f"result.json holds {name}, which strict JSON has not")
-
-
-def read_result(out):
-    """``out/result.json`` parsed by a strict parser: Infinity, -Infinity or NaN raise."""
-    return json.loads((out / "result.json").read_text(), parse_constant=_no_constant)
-
-
-def run_cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "mpd_pin", *args], capture_output=True,
-                          text=True, cwd=cwd, timeout=900)
 
 
 def test_scenarios_lists_all_builtins():

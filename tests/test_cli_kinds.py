@@ -3,13 +3,12 @@
 
 import json
 import shutil
-import subprocess
-import sys
 import textwrap
 from importlib import resources
 from pathlib import Path
 
 import pytest
+from conftest import run_cli
 
 from mpd_pin.app.cli import main as cli_main
 from mpd_pin.app.config import ConfigError
@@ -34,11 +33,6 @@ ENERGY = textwrap.dedent("""
 """)
 DYNAMIC = (resources.files("mpd_pin") / "scenarios" / "env1.toml").read_text()
 ARM_LINE = 'builtin = "planar_2link"'
-
-
-def run_cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "mpd_pin", *args], capture_output=True,
-                          text=True, cwd=cwd, timeout=900)
 
 
 def _scenario(folder: Path, text: str, arm: str, name: str = "s") -> Path:

@@ -42,3 +42,70 @@ def test_readme_python_block_runs_in_an_empty_directory(index, tmp_path):
     assert proc.returncode == 0, f"README block {index} failed:\n{code}\n{proc.stderr[-3000:]}"
     assert proc.stdout.strip(), f"README block {index} printed nothing"
     assert not list(tmp_path.iterdir()), "README example left files in the working directory"
+
+
+# ------------------------------------------------------------------ the shell commands
+BASH = re.findall(r"^```bash\n(.*?)^```$", README.read_text(encoding="utf-8"), re.M | re.S)
+
+
+def _mpd_pin_commands() -> list[str]:
+    """The ``mpd-pin …`` commands of README's ```bash blocks, in order, as written (a
+    ``pip install … && mpd-pin …`` line gives its second half; comments dropped)."""
+    commands = []
+    for block in BASH:
+        for line in block.splitlines():
+            line = re.sub(r"\s+#.*$", "", line).strip()
+            if "mpd-pin " in line:
+                commands.append(line[line.index("mpd-pin "):])
+    return commands
+
+
+def test_readme_shell_commands_run_as_written(tmp_path):
+    """Every ``mpd-pin`` command of the README runs, one after the other, in an empty
+    folder (``mpd-pin show … > my_scene.toml`` feeds the next one); the first prints the
+    line the README shows; every result.json written is checked against the schema
+    (tests/conftest.py)."""
+    import json
+
+    commands = _mpd_pin_commands()
+    assert commands[0] == "mpd-pin run quickstart --out out/", commands
+    assert any(c.startswith("mpd-pin show ") for c in commands)
+    env = dict(os.environ, MPLBACKEND="Agg")
+    env["PATH"] = str(Path(sys.executable).parent) + os.pathsep + env.get("PATH", "")
+    outputs = []
+    for command in commands:
+        proc = subprocess.run(["bash", "-c", command], cwd=tmp_path, env=env,
+                              capture_output=True, text=True, timeout=600)
+        assert proc.returncode == 0, f"{command}:\n{proc.stderr[-3000:]}"
+        outputs.append(proc.stdout)
+    shown = re.search(r"prints\n\n```text\n(.*?)\n```", README.read_text(encoding="utf-8"), re.S)
+    assert shown, "README shows no output of the first command"
+    assert outputs[0].strip() == shown.group(1).strip()
+    first = json.loads((tmp_path / "out" / "result.json").read_text())
+    assert first["warnings"] == [] and 1.0 < first["total_energy"] < 1000.0  # plausible J
+    paper = json.loads((tmp_path / "out" / "case1" / "result.json").read_text())
+    case1 = outputs[commands.index("mpd-pin run case1 --out out/case1")]
+    assert paper["warnings"] and f"warning: {paper['warnings'][0]}" in case1
+
+
+# ------------------------------------------------------------------ result.json tables
+def _table_fields(heading_text: str) -> set[str]:
+    """Backticked names in the first column of the table following ``heading_text``."""
+    text = README.read_text(encoding="utf-8")
+    start = text.index(heading_text)
+    rows = re.search(r"\n(\|.*?\n)(?!\|)", text[start:], re.S).group(1)
+    names = set()
+    for row in rows.splitlines()[2:]:
+        names |= set(re.findall(r"`(\w+)`", row.split("|")[1]))
+    return names
+
+
+@pytest.mark.parametrize("kind, heading", [
+    ("energy", 'An energy scenario (`kind = "energy"`, paper 000):'),
+    ("dynamic2link", "files, but the PNG figures listed in `plots`, and:"),
+])
+def test_readme_tables_name_every_result_field(kind, heading):
+    from mpd_pin.app.results import result_schema
+
+    fields = set(result_schema()["$defs"][kind]["properties"])
+    assert _table_fields(heading) == fields

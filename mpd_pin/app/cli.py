@@ -1,6 +1,7 @@
 """The ``mpd-pin`` command.
 
     mpd-pin scenarios                       list the built-in scenarios
+    mpd-pin show NAME                       print a built-in scenario's TOML (a starting point)
     mpd-pin run NAME|FILE --out DIR         plan a scenario, write result.json, plots, replay.html
         [--seed N] [--planner NAME]         (planners: mpd_pin.search.PLANNERS, listed by --help)
 
@@ -52,6 +53,19 @@ def cmd_scenarios(_: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_show(args: argparse.Namespace) -> int:
+    """Print the TOML text of the built-in scenario ``args.name`` as shipped (copy it to a
+    file and edit it: ``mpd-pin show case1 > my_scene.toml``)."""
+    from .scenario import builtin_scenarios
+
+    scenarios = builtin_scenarios()
+    if args.name not in scenarios:
+        raise ConfigError(f"unknown built-in scenario {args.name!r}; the built-in scenarios are: "
+                          f"{', '.join(scenarios)}")
+    sys.stdout.write(scenarios[args.name].read_text(encoding="utf-8"))
+    return 0
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from .kinds import load_scenario, run_scenario, summary_line
 
@@ -85,6 +99,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("scenarios", help="list the built-in scenarios")
     p.set_defaults(func=cmd_scenarios)
+    p = sub.add_parser("show", help="print a built-in scenario's TOML (a starting point for "
+                       "your own: mpd-pin show case1 > my_scene.toml)")
+    p.add_argument("name", help="built-in scenario name (mpd-pin scenarios lists them)")
+    p.set_defaults(func=cmd_show)
     p = sub.add_parser("run", help="plan a scenario and write result.json, plots and replay.html",
                        epilog=_planners_help())
     p.add_argument("scenario", help="built-in scenario name or path to a .toml file")

@@ -73,9 +73,16 @@ def _run_energy(scn, out_dir: Path, *, show_progress: bool, cache: Path | None, 
 
 def _summary_energy(scn, result: dict[str, Any], out_dir: Path) -> str:
     per_joint = ", ".join(f"{e:.4g}" for e in result["energy_per_joint"])
+    cache = result["roadmap"].get("cache") or {}
+    if cache.get("path"):  # the roadmap file: reused, or built and saved to it
+        how = "reused from" if cache.get("reused") else "saved to"
+        roadmap = f" ({how} {cache['path']})"
+    else:
+        roadmap = ""
+    warnings = "".join(f"; warning: {w}" for w in result.get("warnings", []))
     return (f"{scn.name}: {result['total_energy']:.6g} J ({per_joint}) over "
             f"{result['path']['length_nodes']} nodes; roadmap {result['roadmap']['num_nodes']} "
-            f"nodes -> {out_dir}/result.json")
+            f"nodes{roadmap} -> {out_dir}/result.json{warnings}")
 
 
 def _parse_dynamic(data: dict[str, Any], path: Path, *, seed: int | None, planner: str | None):

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import ConfigError
+from .config import ConfigError, Table
 
 __all__ = [
     "BOUNDS",
@@ -30,6 +30,8 @@ __all__ = [
     "workspace_bound",
     "position_bound",
     "size_bound",
+    "apply_joint_limits",
+    "check_joint_limits",
 ]
 
 #: Positions within ± this many times the arm's reach (m).
@@ -95,6 +97,9 @@ BOUNDS: dict[str, Bound] = {
     "resolution": _b(1e-3, 2 * math.pi, "rad", "the resolution range"),
     "arrival_tolerance": _b(0.0, math.pi, "rad", "the tolerance range", lo_open=True),
     "angle": _b(-2 * math.pi, 2 * math.pi, "rad", "the angle bound"),
+    # [limits] table: joint velocity and effort limits (§7b); prismatic: m/s and N
+    "velocity": _b(0.0, 1e3, "rad/s", "the joint velocity limit range", lo_open=True),
+    "effort": _b(0.0, 1e5, "N·m", "the joint effort limit range", lo_open=True),
     "hazard_penalty": _b(1.0, 1e12, "", "the penalty range", allow_inf=True,
                          note="or inf: edges through a hazard removed"),
     # dynamic2link (§6)
@@ -157,3 +162,66 @@ def size_bound(arm, *, zero: bool = False) -> Bound:
     """The range of a size, radius, clearance or margin (m): (0, 2 × workspace bound]
     (``zero``: 0 allowed)."""
     return Bound(0.0, 2 * workspace_bound(arm), "m", "the size range", lo_open=not zero)
+
+
+# ------------------------------------------------------------ joint limits ([limits])
+def _is_prismatic(model, k: int) -> bool:
+    short = model.joints[k + 1].shortname()
+    return short.startswith("JointModelP") and not short.startswith("JointModelPlanar")
+
+
+def _units(model, k: int) -> dict[str, str]:
+    return {"velocity": "m/s", "effort": "N"} if _is_prismatic(model, k) else {
+        "velocity": "rad/s", "effort": "N·m"}
+
+
+def apply_joint_limits(t: Table, arm) -> dict[str, dict[str, float]]:
+    """``[limits]``: ``joint = { velocity = …, effort = … }`` (rad/s and N·m; m/s and N
+    for prismatic joints) fills or overrides the URDF limits of the named joints of
+    ``arm`` in place (its Pinocchio model, so the fingerprint follows). ConfigError
+    naming the key for an unknown joint, key or a value outside (0, bound]
+    (docs/design.md §7b). Returns the values applied, joint by joint."""
+    names = arm.joint_names
+    applied: dict[str, dict[str, float]] = {}
+    for joint in list(t.data):
+        if joint not in names:
+            locked = " (it is locked)" if joint in arm.locked_joints else ""
+            raise ConfigError(f"{t.path}.{joint}: the arm has no movable joint {joint!r}"
+                              f"{locked}; joints: {names}")
+        jt = t.table(joint)
+        k = names.index(joint)
+        units = _units(arm.model, k)
+        entry = {}
+        for kind in ("velocity", "effort"):
+            if jt.has(kind):
+                b = BOUNDS[kind]
+                entry[kind] = jt.number(kind, bound=Bound(b.lo, b.hi, units[kind], b.what,
+                                                          lo_open=True))
+        jt.done()
+        if not entry:
+            raise ConfigError(f"{t.path}.{joint}: give velocity and/or effort")
+        if "velocity" in entry:
+            arm.model.velocityLimit[k] = entry["velocity"]
+        if "effort" in entry:
+            arm.model.effortLimit[k] = entry["effort"]
+        applied[joint] = entry
+    t.done()
+    return applied
+
+
+def check_joint_limits(arm, *, velocity: bool = True, effort: bool = True) -> None:
+    """ConfigError naming the first joint whose URDF velocity (if ``velocity``) or
+    effort (if ``effort``) limit is zero, negative or not finite — common in
+    hand-written URDFs — with the ``[limits]`` entry that would supply it (§7b)."""
+    model = arm.model
+    for k, name in enumerate(arm.joint_names):
+        units = _units(model, k)
+        for kind, on, arr in (("velocity", velocity, model.velocityLimit),
+                              ("effort", effort, model.effortLimit)):
+            val = float(arr[k])
+            if on and not (math.isfinite(val) and val > 0):
+                raise ConfigError(
+                    f"arm: joint {name!r} has no {kind} limit in its URDF ({val:g} "
+                    f"{units[kind]}); add it to the scenario: [limits] {name} = "
+                    f"{{ {kind} = ... }} ({units[kind]})"
+                )

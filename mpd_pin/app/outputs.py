@@ -3,14 +3,17 @@
 result.json (:func:`result_record`, written by :func:`~mpd_pin.app.results.write_json`,
 where every non-finite number is ``null``) holds:
 
-* ``scenario``, ``description``, ``arm``, ``joint_names``, ``planner``, ``start``, ``goal``
-  (rad), ``world`` (as given, before any reveal);
+* ``kind`` (``"energy"``), ``scenario``, ``description``, ``arm``, ``joint_names``,
+  ``planner``, ``start``, ``goal`` (rad), ``world`` (as given, before any reveal);
 * ``motor`` — one ``DCMotor`` or one per joint (``v_max: null`` — no voltage limit);
   ``controller`` — ``kp``, ``kd``, ``feedforward``; ``current_model`` — which current
   integration ran (``rk4``, ``exponential`` or both, per joint: docs/design.md §3e);
-* ``roadmap`` — ``num_nodes``, ``num_edges``, ``edge_counts`` (directed candidates
-  lengthened for the velocity limits, refused for effort, refused for not arriving:
-  docs/design.md §4e), ``options`` (``RoadmapOptions``), ``key``;
+* ``warnings`` — one sentence per thing a reader should know before trusting the numbers
+  (:func:`run_warnings`: the paper's Table 7 motor, with a pointer to the README section);
+* ``roadmap`` — ``num_nodes`` (``options.num_nodes`` samples + start + goal), ``num_edges``,
+  ``edge_counts`` (directed candidates lengthened for the velocity limits, refused for
+  effort, refused for not arriving: docs/design.md §4e), ``options`` (``RoadmapOptions``),
+  ``key``, ``cache`` (``path`` of the roadmap file or ``null``, ``reused``: loaded from it);
 * ``hazard_replanning`` (``HazardResult.to_dict``: ``penalty: null`` — ∞, edges removed;
   ``penalty_floor: null`` — unused; margins ``null`` — no hazard), ``execution``
   (``ExecutionResult.to_dict``, energies unpenalised), when they ran;
@@ -32,6 +35,9 @@ where every non-finite number is ``null``) holds:
   ``roadmap_<name>`` and ``roadmap_total``; ``cpu_seconds_per_phase`` and
   ``cpu_seconds_total`` — CPU seconds of this process, all its threads
   (:class:`~mpd_pin.app.timing.PhaseClock`); ``outputs`` — the files beside result.json.
+
+Every field, with its unit, is in the JSON Schema ``mpd_pin/schemas/result.schema.json``
+(docs/design.md §7e).
 """
 
 from __future__ import annotations
@@ -43,6 +49,7 @@ from typing import Any
 import numpy as np
 
 from ..dynamics.current import current_model
+from ..dynamics.motor import PAPER_MOTOR, DCMotor
 from ..planning.roadmap import Roadmap
 from .plan import PlanResult, Setup, path_length
 from .results import to_jsonable, write_json
@@ -59,7 +66,48 @@ __all__ = [
     "comparison_record",
     "write_result",
     "SHORTEST_LABEL",
+    "PAPER_MOTOR_SECTION",
+    "run_warnings",
+    "cache_record",
 ]
+
+#: The README.md section (its heading) that explains the energies of the paper's motor;
+#: the warning of :func:`run_warnings` points to it.
+PAPER_MOTOR_SECTION = "Energies with the paper's motor"
+
+#: The constants that make a motor "the paper's Table 7 motor" (any gear ratio, v_max).
+_PAPER_CONSTANTS = ("R", "Kt", "Ke", "B")
+
+
+def _is_paper_motor(motor: DCMotor) -> bool:
+    return all(getattr(motor, c) == getattr(PAPER_MOTOR, c) for c in _PAPER_CONSTANTS)
+
+
+def run_warnings(scn: EnergyScenario) -> list[str]:
+    """The ``warnings`` of result.json (one sentence each, also printed by ``mpd-pin run``;
+    docs/design.md §7e): today one, when some joint is driven by the paper's Table 7 motor
+    (R = 1 Ω, Kt = 0.01 N·m/A, Ke = 0.02 V·s/rad, B = 0.1 N·m·s/rad, any gear ratio), whose
+    constants make planar-arm moves cost 10⁴–10⁵ J."""
+    motors = scn.motor if isinstance(scn.motor, list) else [scn.motor] * scn.arm.nq
+    joints = [n for n, m in zip(scn.arm.joint_names, motors, strict=True) if _is_paper_motor(m)]
+    if not joints:
+        return []
+    which = "every joint" if len(joints) == len(motors) else "joint(s) " + ", ".join(joints)
+    return [
+        f"the paper's Table 7 motor (Kt = 0.01 N·m/A, R = 1 Ω, B = 0.1 N·m·s/rad) drives "
+        f"{which}: its constants, not the planner, make energies of 10⁴–10⁵ J for a small arm; "
+        f'see README.md section "{PAPER_MOTOR_SECTION}" ([motor] preset = "sized" gives '
+        f"realistic motors)"
+    ]
+
+
+def cache_record(cache: Path | None, reused: bool) -> dict[str, Any]:
+    """``roadmap.cache`` of result.json: the roadmap file (``null``: none) and whether the
+    roadmap was loaded from it (``reused``) rather than built (and saved to it)."""
+    from ..planning.roadmap import npz_path
+
+    return {"path": str(npz_path(cache)) if cache is not None else None,
+            "reused": bool(reused and cache is not None)}
 
 #: Label of the shortest joint-space path in the plots and the replay.
 SHORTEST_LABEL = "shortest joint-space path"
@@ -172,13 +220,13 @@ def write_replay_html(
     roadmap, resolution = setup.roadmap, scn.options.resolution
     lines = {  # plans not followed (straight joint-space edges), then the motion
         f"end effector ({name})": ee_trace(
-            scn.arm, straight_line_configurations(roadmap, nodes, resolution)
+            scn.arm, straight_line_configurations(roadmap, nodes, resolution, scn.arm)
         )
         for name, nodes in plan.other_paths.items()
     }
     if shortest is not None:
         lines[f"end effector ({SHORTEST_LABEL})"] = ee_trace(
-            scn.arm, straight_line_configurations(roadmap, shortest.path, resolution)
+            scn.arm, straight_line_configurations(roadmap, shortest.path, resolution, scn.arm)
         )
     lines["end effector (travelled)"] = ee_trace(scn.arm, q_rep)  # drawn last: on top
     write_replay(
@@ -201,13 +249,16 @@ def write_replay_html(
     }
 
 
-def _roadmap_record(scn: EnergyScenario, roadmap: Roadmap) -> dict[str, Any]:
+def _roadmap_record(
+    scn: EnergyScenario, roadmap: Roadmap, cache: dict[str, Any] | None
+) -> dict[str, Any]:
     return {
-        "num_nodes": roadmap.num_nodes,
+        "num_nodes": roadmap.num_nodes,  # options.num_nodes samples + start + goal
         "num_edges": roadmap.num_edges,
         "edge_counts": dict(roadmap.edge_counts),  # lengthened / refused directed candidates
         "options": asdict(scn.options),
         "key": roadmap.key,
+        "cache": cache if cache is not None else cache_record(None, False),
     }
 
 
@@ -231,20 +282,23 @@ def result_record(
     replay: dict[str, Any] | None,
     clock: PhaseClock,
     comparison: dict[str, Any] | None = None,
+    cache: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The content of result.json (see the module docstring), not yet encoded;
-    ``comparison`` from :func:`comparison_record`."""
+    ``comparison`` from :func:`comparison_record`, ``cache`` from :func:`cache_record`."""
     motor = scn.motor
     record: dict[str, Any] = {
+        "kind": scn.kind,
         "scenario": scn.name,
         "description": scn.description,
+        "warnings": run_warnings(scn),
         "arm": scn.arm.name,
         "joint_names": scn.arm.joint_names,
         "locked_joints": scn.arm.locked_joints,
         "motor": [asdict(m) for m in motor] if isinstance(motor, list) else asdict(motor),
         "controller": {"kp": scn.kp, "kd": scn.kd, "feedforward": scn.feedforward},
         "current_model": current_model(setup.drive, scn.options.dt),
-        "roadmap": _roadmap_record(scn, setup.roadmap),
+        "roadmap": _roadmap_record(scn, setup.roadmap, cache),
         "planner": scn.planner,
         "start": scn.start,
         "goal": scn.goal,
@@ -259,7 +313,7 @@ def result_record(
         "nodes": [int(n) for n in plan.path],
         "configurations": setup.roadmap.nodes[plan.path],
         "length_nodes": len(plan.path),
-        "length_rad": path_length(setup.roadmap, plan.path),
+        "length_rad": path_length(setup.roadmap, plan.path, scn.arm),
         "node_times": check.series["node_times"],
     }
     record["energy_per_joint"] = plan.energy
@@ -278,12 +332,12 @@ def _saved_percent(e_opt: float, e_short: float) -> float:
     return 100.0 * (1.0 - e_opt / e_short) if e_short != 0.0 else float("nan")
 
 
-def _path_entry(roadmap: Roadmap, nodes: list[int]) -> dict[str, Any]:
+def _path_entry(roadmap: Roadmap, nodes: list[int], arm=None) -> dict[str, Any]:
     energy = roadmap.path_energy(nodes)
     return {
         "nodes": [int(n) for n in nodes],
         "length_nodes": len(nodes),
-        "length_rad": path_length(roadmap, nodes),
+        "length_rad": path_length(roadmap, nodes, arm),
         "energy_per_joint": energy,
         "total_energy": float(energy.sum()),
     }
@@ -306,7 +360,7 @@ def comparison_record(
         basis = "hazard re-planned"
     else:
         basis = "planned"
-    entry = _path_entry(roadmap, shortest.path)
+    entry = _path_entry(roadmap, shortest.path, scn.arm)
     entry["energy_per_joint_simulate_edge"] = shortest_check.energy_per_joint
     entry["total_energy_simulate_edge"] = float(shortest_check.energy_per_joint.sum())
     e_opt = float(plan.energy.sum())
@@ -321,8 +375,8 @@ def comparison_record(
         ),
     }
     if plan.execution is not None and shortest.execution is not None:
-        opt0 = _path_entry(roadmap, plan.execution.initial_path)
-        short0 = _path_entry(roadmap, shortest.execution.initial_path)
+        opt0 = _path_entry(roadmap, plan.execution.initial_path, scn.arm)
+        short0 = _path_entry(roadmap, shortest.execution.initial_path, scn.arm)
         out["before_obstacle"] = {
             "optimal": opt0,
             "shortest_path": short0,

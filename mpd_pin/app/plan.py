@@ -25,9 +25,11 @@ from typing import Any
 
 import numpy as np
 
+from ..arm import Arm
 from ..collision import CollisionChecker
 from ..dynamics import EnergyCost
 from ..dynamics.motor import Drive
+from ..errors import NoPathError
 from ..planning.execution import ExecutionResult, execute
 from ..planning.hazards import HazardResult, plan_avoiding_hazards
 from ..planning.roadmap import Roadmap, build_roadmap
@@ -44,6 +46,7 @@ __all__ = [
     "edge_lengths",
     "path_length",
     "distance_roadmap",
+    "refusal_note",
 ]
 
 
@@ -97,33 +100,70 @@ def prepare(
     return Setup(drive, world, checker, roadmap, world.to_dict())
 
 
-def edge_lengths(roadmap: Roadmap) -> np.ndarray:
+def edge_lengths(roadmap: Roadmap, arm: Arm | None = None) -> np.ndarray:
     """(E,) joint-space length of every directed edge (rad): the Euclidean norm
-    ``‖q_dst − q_src‖₂`` (docs/design.md §7c)."""
-    return np.linalg.norm(roadmap.nodes[roadmap.dst] - roadmap.nodes[roadmap.src], axis=1)
+    ``‖q_dst − q_src‖₂`` (docs/design.md §7c), the shorter way round on the continuous
+    joints of ``arm`` (§1d)."""
+    Q0, Q1 = roadmap.nodes[roadmap.src], roadmap.nodes[roadmap.dst]
+    if arm is not None:
+        Q1 = arm.edge_target(Q0, Q1)
+    return np.linalg.norm(Q1 - Q0, axis=1)
 
 
-def path_length(roadmap: Roadmap, path: list[int]) -> float:
-    """Joint-space length of a node path (rad): Σ over its edges of ``‖Δq‖₂``."""
-    Q = roadmap.nodes[list(path)]
-    return float(np.linalg.norm(np.diff(Q, axis=0), axis=1).sum()) if len(path) > 1 else 0.0
+def path_length(roadmap: Roadmap, path: list[int], arm: Arm | None = None) -> float:
+    """Joint-space length of a node path (rad): Σ over its edges of ``‖Δq‖₂`` (the
+    shorter way round on the continuous joints of ``arm``, §1d)."""
+    if len(path) < 2:
+        return 0.0
+    Q0, Q1 = roadmap.nodes[list(path[:-1])], roadmap.nodes[list(path[1:])]
+    if arm is not None:
+        Q1 = arm.edge_target(Q0, Q1)
+    return float(np.linalg.norm(Q1 - Q0, axis=1).sum())
 
 
-def distance_roadmap(roadmap: Roadmap) -> Roadmap:
-    """A copy of ``roadmap`` (same nodes and edges) whose costs are the edge lengths (rad),
-    carried in the first column of ``energy`` (the others 0), so that ``graph()``, hazard
-    penalties and execution plan on distance. Only for planning: energies come from
-    ``roadmap``."""
+def distance_roadmap(roadmap: Roadmap, arm: Arm | None = None) -> Roadmap:
+    """A copy of ``roadmap`` (same nodes and edges) whose costs are the edge lengths (rad,
+    :func:`edge_lengths` with ``arm``), carried in the first column of ``energy`` (the
+    others 0), so that ``graph()``, hazard penalties and execution plan on distance. Only
+    for planning: energies come from ``roadmap``."""
     cost = np.zeros_like(np.asarray(roadmap.energy, dtype=float))
-    cost[:, 0] = edge_lengths(roadmap)
+    cost[:, 0] = edge_lengths(roadmap, arm)
     return replace(roadmap, energy=cost)
 
 
 def plan_path(scn: EnergyScenario, setup: Setup) -> PlanResult:
     """Find the path of ``scn`` on ``setup.roadmap``: hazard re-planning first if the world
     has hazards with a clearance, then execution with sensing if it has hidden obstacles,
-    else one search."""
-    return _plan_on(scn, setup, setup.roadmap)
+    else one search. A NoPathError says how many edges the roadmap refused, and why
+    (:func:`refusal_note`)."""
+    try:
+        return _plan_on(scn, setup, setup.roadmap)
+    except NoPathError as exc:
+        note = refusal_note(setup.roadmap, scn.options.arrival_tolerance)
+        if not note:
+            raise
+        raise NoPathError(f"{exc}; {note}") from None
+
+
+def refusal_note(roadmap: Roadmap, tolerance: float) -> str:
+    """Why a roadmap may lack the edges a path needs: its counts of directed edges refused
+    for the effort limits and for not arriving (docs/design.md §4e), with what to try;
+    "" if none was refused."""
+    counts = roadmap.edge_counts or {}
+    effort, arrival = int(counts.get("refused_effort", 0)), int(counts.get("refused_arrival", 0))
+    if effort + arrival == 0:
+        return ""
+    total = roadmap.num_edges + effort + arrival
+    parts = []
+    if effort:
+        parts.append(f"{effort} because the motor torque n·Kt·i exceeded a joint's effort limit")
+    if arrival:
+        parts.append(f"{arrival} because the simulated motion ended more than {tolerance:g} rad "
+                     "from its end node")
+    return (f"the roadmap refused {effort + arrival} of its {total} collision-free directed "
+            f"edges: {' and '.join(parts)}; try motors that can follow the edges ([motor] preset "
+            '= "sized") or longer edges ([roadmap] duration, or duration_rule = "distance" '
+            "with a lower joint_speed)")
 
 
 def plan_shortest(scn: EnergyScenario, setup: Setup) -> PlanResult:
@@ -135,7 +175,7 @@ def plan_shortest(scn: EnergyScenario, setup: Setup) -> PlanResult:
     revealed = sorted(world.revealed)
     world.reset()
     try:
-        return _plan_on(scn, setup, distance_roadmap(setup.roadmap))
+        return _plan_on(scn, setup, distance_roadmap(setup.roadmap, setup.drive.arm))
     finally:
         world.reset()
         if revealed:

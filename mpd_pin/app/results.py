@@ -21,7 +21,29 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["to_jsonable", "write_json"]
+__all__ = ["to_jsonable", "write_json", "result_schema", "validate_result"]
+
+#: The JSON Schema of result.json, shipped with the package (docs/design.md §7e).
+SCHEMA_RESOURCE = ("schemas", "result.schema.json")
+
+
+def result_schema() -> dict[str, Any]:
+    """The JSON Schema (draft 2020-12) of result.json, both scenario kinds, units in each
+    field's ``description`` (``mpd_pin/schemas/result.schema.json``; docs/design.md §7e)."""
+    from importlib import resources
+
+    path = resources.files("mpd_pin").joinpath(*SCHEMA_RESOURCE)
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def validate_result(doc: Any) -> None:
+    """Raise ``jsonschema.ValidationError`` unless ``doc`` (a parsed result.json) matches
+    :func:`result_schema`. Needs the ``jsonschema`` package (the ``test`` extra)."""
+    import jsonschema
+
+    schema = result_schema()
+    jsonschema.Draft202012Validator.check_schema(schema)
+    jsonschema.Draft202012Validator(schema).validate(doc)
 
 
 def to_jsonable(obj: Any) -> Any:

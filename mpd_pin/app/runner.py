@@ -28,6 +28,7 @@ from typing import Any
 
 from .config import ConfigError
 from .outputs import (
+    cache_record,
     comparison_record,
     result_record,
     write_plots,
@@ -69,6 +70,14 @@ def check_output_dir(out_dir: Path) -> bool:
     return created
 
 
+def _cache_exists(cache: Path | None) -> bool:
+    """Whether the roadmap file ``cache`` exists, so ``build_roadmap`` loads it (or refuses
+    it: another key) instead of building (docs/design.md §4f)."""
+    from ..planning.roadmap import npz_path
+
+    return cache is not None and npz_path(cache).exists()
+
+
 def run_energy_scenario(
     scn: EnergyScenario,
     out_dir: Path,
@@ -89,6 +98,7 @@ def run_energy_scenario(
     clock = PhaseClock()
     dt = scn.options.dt
     with clock.phase("roadmap"):
+        cache_used = _cache_exists(cache)  # loaded (reused) if it exists, else built and saved
         setup = prepare(scn, cache=cache, show_progress=show_progress)
     with clock.phase("search"):
         plan = plan_path(scn, setup)
@@ -110,7 +120,8 @@ def run_energy_scenario(
         with clock.phase("replay"):
             replay_record = write_replay_html(out_dir, scn, setup, plan, check, short)
     clock.finish()
-    record = result_record(scn, setup, plan, check, replay_record, clock, comparison)
+    record = result_record(scn, setup, plan, check, replay_record, clock, comparison,
+                           cache=cache_record(cache, cache_used))
     record["trajectory"] = {
         "csv": "trajectory.csv",
         "json": "trajectory.json",

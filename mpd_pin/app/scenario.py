@@ -45,9 +45,15 @@ A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
     [sensor]
     range = 0.15               # m
 
+    [limits]                   # fill/override URDF joint limits (rad/s, N·m), by joint name
+    joint2 = { velocity = 2.0, effort = 30.0 }
+
     [task]
     start = [0.6, 0.3, 0.2]    # rad; or start_ee = [x, z] (planar) / [x, y, z], solved by IK
     goal = [2.4, -0.3, -0.2]
+    # with start_ee / goal_ee, which IK solution: start_seed = [...] / goal_seed = [...]
+    # (rad: the solution nearest to this posture), elbow = "up" | "down" (the elbow joint
+    # above or below the shoulder-target line; elbow_joint = "name", default the 2nd joint)
 
 Scenarios of ``kind = "dynamic2link"`` (paper 002) are read by
 :mod:`mpd_pin.twolink.scenario`; :mod:`mpd_pin.app.kinds` maps each kind to its parser
@@ -57,6 +63,7 @@ and runner (:func:`~mpd_pin.app.kinds.load_scenario` reads a file of any kind).
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from dataclasses import dataclass, field, replace
 from importlib import resources
@@ -67,14 +74,21 @@ import numpy as np
 
 from ..arm.model import Arm
 from ..dynamics.motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
-from ..dynamics.sizing import sized_motors
+from ..dynamics.sizing import check_holding, sized_motors
 from ..planning.roadmap import RoadmapOptions
 from ..search.registry import DEFAULT_PLANNER, PLANNERS
 from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
 from .arm_source import arm_from_table
 from .config import ConfigError, Table, check_array
 from .kinds import KINDS, scenario_kind
-from .limits import BOUNDS, Bound, position_bound, size_bound
+from .limits import (
+    BOUNDS,
+    Bound,
+    apply_joint_limits,
+    check_joint_limits,
+    position_bound,
+    size_bound,
+)
 
 __all__ = [
     "EnergyScenario",
@@ -191,16 +205,20 @@ def _motor_one(
         else:
             val = t.numbers(name)
             fields[name] = val if isinstance(val, float) else val[index]
+    j = index if index is not None else joint
+    label = "" if j is None else f" (joint {arm.joint_names[j]!r})"
     if fields.get("v_max", 1.0) <= 0:
-        raise ConfigError(f"{t.path}.v_max: must be > 0, got {fields['v_max']}")
+        raise ConfigError(f"{t.path}.v_max: must be > 0, got {fields['v_max']}{label}")
+    for name, val in fields.items():  # the physical ranges first (app/limits.py)
+        per_joint = index is not None and isinstance(t.data[name], list)
+        try:
+            BOUNDS[name].check(f"{t.path}.{name}" + (f"[{index}]" if per_joint else ""), val)
+        except ConfigError as exc:  # name the joint when the value is one joint's
+            raise ConfigError(f"{exc}{label if per_joint or joint is not None else ''}") from None
     try:
         motor = replace(base, **fields)
     except ValueError as exc:  # DCMotor's own checks (R > 0, B ≥ 0, ...)
-        joint = "" if index is None else f" (joint {index})"
-        raise ConfigError(f"{t.path}{joint}: {exc}") from None
-    for name, val in fields.items():  # then the physical ranges (app/limits.py)
-        per_joint = index is not None and isinstance(t.data[name], list)
-        BOUNDS[name].check(f"{t.path}.{name}" + (f"[{index}]" if per_joint else ""), val)
+        raise ConfigError(f"{t.path}{label}: {exc}") from None
     return motor
 
 
@@ -227,7 +245,7 @@ def _motors(top: Table, arm: Arm) -> DCMotor | list[DCMotor]:
     per_joint = []
     for name in MOTOR_CONSTANTS:
         if t.has(name) and isinstance(t.data[name], list):
-            val = t.numbers(name)
+            val = _per_joint_numbers(t, name, arm)
             if len(val) != nq:
                 raise ConfigError(
                     f"motor.{name}: expected one value or {nq} values (one per joint), "
@@ -241,6 +259,23 @@ def _motors(top: Table, arm: Arm) -> DCMotor | list[DCMotor]:
     motors = [_motor_one(t, arm, j) for j in range(nq)]
     t.done()
     return motors
+
+
+def _per_joint_numbers(t: Table, name: str, arm: Arm) -> list[float] | float:
+    """``t.numbers(name)``; an error about element ``[i]`` also names joint i."""
+    try:
+        return t.numbers(name)
+    except ConfigError as exc:
+        m = re.match(rf"{re.escape(t.path)}\.{name}\[(\d+)\]", str(exc))
+        if m is None or int(m.group(1)) >= arm.nq:
+            raise
+        raise ConfigError(f"{exc} (joint {arm.joint_names[int(m.group(1))]!r})") from None
+
+
+def _motor_tables(top: Table) -> list[dict]:
+    """The raw ``[motor]`` / ``[[motors]]`` tables (for a first look at their presets)."""
+    raw = [top.data.get("motor", {})] + list(top.data.get("motors", []) or [])
+    return [m for m in raw if isinstance(m, dict)]
 
 
 def _gain(t: Table, key: str, default: float, nq: int) -> float | list[float]:
@@ -387,16 +422,39 @@ def _shape(t: Table, lim: _Lims):
     return shape
 
 
+def _joint_bounds(arm: Arm) -> list[Bound]:
+    return [Bound(float(lo) - 1e-9, float(hi) + 1e-9, "", f"the limits of joint {n!r}")
+            for n, lo, hi in zip(arm.joint_names, arm.lower_limits, arm.upper_limits, strict=True)]
+
+
+def _ik_choice(t: Table, key: str, arm: Arm) -> dict[str, Any]:
+    """``{key}_seed`` (a posture, rad: the IK starts there and returns the solution nearest
+    to it), ``elbow`` (``"up"``/``"down"``) and ``elbow_joint`` of ``[task]`` (docs/design.md
+    §7e), as keyword arguments of :func:`~mpd_pin.arm.ik.solve_position_ik`."""
+    from ..arm.ik import ELBOW_SIDES
+
+    seed = t.vector(f"{key}_seed", length=arm.nq, bound=_joint_bounds(arm)) if t.has(
+        f"{key}_seed") else None
+    elbow = t.string("elbow", None, choices=ELBOW_SIDES) if t.has("elbow") else None
+    joint = None
+    if t.has("elbow_joint"):
+        joint = t.string("elbow_joint", choices=tuple(arm.joint_names))
+        if elbow is None:
+            raise ConfigError(f"{t.path}.elbow_joint: give elbow = \"up\" or \"down\" with it")
+    return {"seed_posture": None if seed is None else np.array(seed), "elbow": elbow,
+            "elbow_joint": joint}
+
+
 def _endpoint(t: Table, key: str, arm: Arm, world: World, ik_seed: int) -> np.ndarray:
     from ..arm.ik import solve_position_ik
 
     if t.has(key) and t.has(f"{key}_ee"):
         raise ConfigError(f"{t.path}: give {key} or {key}_ee, not both")
     if t.has(key):
-        names = arm.joint_names
-        bounds = [Bound(float(lo) - 1e-9, float(hi) + 1e-9, "", f"the limits of joint {n!r}")
-                  for n, lo, hi in zip(names, arm.lower_limits, arm.upper_limits, strict=True)]
-        return np.array(t.vector(key, length=arm.nq, bound=bounds))
+        if t.has(f"{key}_seed"):
+            raise ConfigError(f"{t.path}.{key}_seed: a seed posture is for {key}_ee (IK); "
+                              f"{key} already gives the joint angles")
+        return np.array(t.vector(key, length=arm.nq, bound=_joint_bounds(arm)))
     raw = t.raw(f"{key}_ee")
     if not isinstance(raw, list) or len(raw) not in (2, 3):
         raise ConfigError(f"{t.path}.{key}_ee: expected [x, z] or [x, y, z]")
@@ -405,8 +463,10 @@ def _endpoint(t: Table, key: str, arm: Arm, world: World, ik_seed: int) -> np.nd
     if len(target) == 2:
         target = [target[0], 0.0, target[1]]
     frame = t.string("ee_frame", "ee" if arm.model.existFrame("ee") else arm.model.frames[-1].name)
+    choice = _ik_choice(t, key, arm)
     try:
-        return solve_position_ik(arm, frame, np.array(target), world=world, seed=ik_seed)
+        return solve_position_ik(arm, frame, np.array(target), world=world, seed=ik_seed,
+                                 **choice)
     except ValueError as exc:
         raise ConfigError(f"{t.path}.{key}_ee: {exc}") from None
 
@@ -422,15 +482,21 @@ def parse_energy_scenario(
     name = top.string("name", Path(source).stem if source else "scenario")
     description = top.string("description", "")
     arm = arm_from_table(top.table("arm", required=True), base_dir)
+    # [limits] (helper C): fill/override URDF velocity and effort limits, then refuse
+    # the joints whose limits the roadmap or the sized motors need but lack (§7b)
+    apply_joint_limits(top.table("limits"), arm)
+    options = _options(top.table("roadmap"))
+    if seed is not None:
+        options = replace(options, seed=int(seed))
+    sized = "sized" in {str(m.get("preset")) for m in _motor_tables(top)}
+    check_joint_limits(arm, velocity=options.velocity_limits or sized,
+                       effort=options.effort_limits or sized)
     motor = _motors(top, arm)
     ctl = top.table("controller")
     kp = _gain(ctl, "kp", 40.0, arm.nq)
     kd = _gain(ctl, "kd", 4.0, arm.nq)
     ff = ctl.boolean("feedforward", True)
     ctl.done()
-    options = _options(top.table("roadmap"))
-    if seed is not None:
-        options = replace(options, seed=int(seed))
     obstacles = []
     lim = _Lims.of(arm)
     for t in top.tables("obstacles"):
@@ -458,8 +524,17 @@ def parse_energy_scenario(
     ik_seed = task.integer("ik_seed", 0, minimum=0, maximum=LIMITS["seed"] - 1)
     start = _endpoint(task, "start", arm, world, ik_seed)
     goal = _endpoint(task, "goal", arm, world, ik_seed + 1)
+    if task.has("elbow") and not (task.has("start_ee") or task.has("goal_ee")):
+        raise ConfigError(f"{task.path}.elbow: chooses the IK solution of start_ee/goal_ee; "
+                          "start and goal are given as joint angles")
     task.done()
     top.done()
+    holding = Drive(arm, motor, kp, kd, feedforward=ff)  # a motor too weak to hold (§3g)
+    for what, q in (("task.start", start), ("task.goal", goal)):
+        try:
+            check_holding(holding, q, what, effort_limits=options.effort_limits)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
     return EnergyScenario(
         name=name,
         description=description,

@@ -4,7 +4,9 @@
   step: ``t`` (s), then for each joint ``q_<joint>`` (rad), ``v_<joint>`` (rad/s),
   ``i_<joint>`` (A), ``V_<joint>`` (V), ``tau_<joint>`` (motor torque at the joint
   n·Kt·i, N·m). One time base: t = 0 at the start node, no duplicate sample at the
-  joins of edges (:func:`~mpd_pin.app.verify.simulate_path`).
+  joins of edges (:func:`~mpd_pin.app.verify.simulate_path`). A continuous joint's
+  angle is continuous in time (unwrapped, docs/design.md §1d): it may leave [−π, π]
+  but never jumps by 2π.
 * ``trajectory.json`` (:func:`joint_trajectory`) — the same motion shaped like ROS
   ``trajectory_msgs/JointTrajectory``: ``joint_names`` and ``points``, each with
   ``positions`` (rad), ``velocities`` (rad/s), ``accelerations`` (rad/s²), ``effort``

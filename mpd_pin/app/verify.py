@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..arm import Arm
 from ..collision import edge_configurations
 from ..dynamics.motor import Drive
 from ..dynamics.simulate import simulate_edge
@@ -30,6 +31,11 @@ def simulate_path(
     start node, each later edge's first sample dropped (the previous edge's end stands for
     it); the start sample is the first edge's (at rest, holding: i = G(q)/(n·Kt)). A
     one-node path is that holding state alone (V = R·i with feed-forward, else 0).
+
+    Continuous joints go the shorter way round (``Arm.edge_target``) and ``q`` is
+    continuous in time (unwrapped): each edge's motion is shifted by the whole turns
+    (2π multiples) its start node lies from where the previous edge ended, so ``q`` of a
+    continuous joint may leave [−π, π] (docs/design.md §1d). Energies are unaffected.
     """
     nq = drive.nq
     ids = roadmap.edge_ids(path)
@@ -41,18 +47,16 @@ def simulate_path(
     per_edge = []
     t0, e0 = 0.0, np.zeros(nq)
     node_times = [0.0]
+    turns = np.zeros(nq)  # whole turns (rad) of the unwrapped motion (§1d)
     for e in ids:
-        sim = simulate_edge(
-            drive,
-            roadmap.nodes[roadmap.src[e]],
-            roadmap.nodes[roadmap.dst[e]],
-            float(roadmap.durations[e]),
-            dt,
-        )
+        q0 = roadmap.nodes[roadmap.src[e]]
+        q1 = drive.arm.edge_target(q0, roadmap.nodes[roadmap.dst[e]])
+        sim = simulate_edge(drive, q0, q1, float(roadmap.durations[e]), dt)
         if not per_edge:  # the start sample as simulated (its voltage is the controller's)
             Vs[0] = sim.V[:1]
         ts.append(t0 + sim.t[1:])
-        qs.append(sim.q[1:])
+        qs.append(sim.q[1:] + turns)
+        turns = turns + (q1 - roadmap.nodes[roadmap.dst[e]])
         vs.append(sim.v[1:])
         cs.append(sim.i[1:])
         Vs.append(sim.V[1:])
@@ -74,13 +78,17 @@ def simulate_path(
 
 
 def straight_line_configurations(
-    roadmap: Roadmap, nodes: list[int], resolution: float
+    roadmap: Roadmap, nodes: list[int], resolution: float, arm: Arm | None = None
 ) -> np.ndarray:
     """Configurations (rad) along the straight joint-space edges through ``nodes`` (the
-    geometric path the quintic reference follows), ``resolution`` rad apart."""
+    geometric path the quintic reference follows), ``resolution`` rad apart; with ``arm``
+    the shorter way round on its continuous joints (``Arm.edge_target``, §1d)."""
     Q = [roadmap.nodes[nodes[0]][None]]
     for u, v in zip(nodes[:-1], nodes[1:], strict=True):
-        Q.append(edge_configurations(roadmap.nodes[u], roadmap.nodes[v], resolution)[1:])
+        q0, q1 = roadmap.nodes[u], roadmap.nodes[v]
+        if arm is not None:
+            q1 = arm.edge_target(q0, q1)
+        Q.append(edge_configurations(q0, q1, resolution)[1:])
     return np.concatenate(Q)
 
 

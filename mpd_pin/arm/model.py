@@ -102,6 +102,25 @@ def _revolute_for_continuous(xml: str) -> tuple[str, tuple[str, ...]]:
     return etree.tostring(root, encoding="unicode"), tuple(names)
 
 
+def _zero_missing_limits(xml: str) -> str:
+    """Give a ``<limit>`` without ``effort`` or ``velocity`` the value 0 (urdfdom refuses
+    it otherwise): a zero limit is "not stated", which a scenario's ``[limits]`` table
+    can supply (docs/design.md §7b)."""
+    from lxml import etree
+
+    root = etree.fromstring(xml.encode("utf-8"))
+    changed = False
+    for limit in root.iter("limit"):
+        parent = limit.getparent()
+        if parent is None or parent.tag != "joint":
+            continue
+        for attr in ("effort", "velocity"):
+            if limit.get(attr) is None:
+                limit.set(attr, "0")
+                changed = True
+    return etree.tostring(root, encoding="unicode") if changed else xml
+
+
 def _rename_joints_named_like_links(xml: str) -> str:
     """Rename a joint that has the name of a link to ``<name>_joint``.
 
@@ -337,7 +356,8 @@ class Arm:
     srdf_path: str | None = None
     urdf_xml: str | None = None
     q_reference: np.ndarray | None = None
-    #: joints that are ``continuous`` in the URDF, planned as revolute in [−π, π] rad
+    #: joints that are ``continuous`` in the URDF: angles in [−π, π] rad, edges the shorter
+    #: way round (docs/design.md §1d)
     continuous_joints: tuple[str, ...] = ()
     #: joints locked out of the model: name -> value (rad or m), as reported in result.json
     locked_joints: dict[str, float] = field(default_factory=dict)
@@ -383,8 +403,10 @@ class Arm:
         an ancestor folder of the file named ``NAME``, or ``ROS_PACKAGE_PATH``; a missing
         mesh is a ValueError naming the URI and the folders searched.
 
-        ``continuous`` joints are planned as revolute joints in [−π, π] rad
-        (:attr:`continuous_joints` lists them); a URDF with a ``floating`` joint is refused.
+        ``continuous`` joints are planned as revolute joints in [−π, π] rad, their edges
+        the shorter way round (:attr:`continuous_joints`, :meth:`edge_target`, §1d); a
+        ``<limit>`` without ``effort`` or ``velocity`` gets 0 there ("not stated", §7b);
+        a URDF with a ``floating`` joint is refused.
         ``strict_srdf=False`` ignores SRDF pairs naming links the URDF lacks (as Pinocchio
         does) instead of refusing the SRDF: used for the data example-robot-data ships.
 
@@ -407,7 +429,7 @@ class Arm:
         _validate_urdf(xml, where)
         if _has_floating_joint(xml):
             raise ValueError(f"URDF in {where} has a floating joint: a floating base is not an arm")
-        xml, continuous = _revolute_for_continuous(xml)
+        xml, continuous = _revolute_for_continuous(_zero_missing_limits(xml))
         xml = _resolve_meshes(xml, path, dirs)
         try:
             model = pin.buildModelFromXML(xml)
@@ -538,6 +560,19 @@ class Arm:
     def joint_names(self) -> list[str]:
         """Names of the movable joints, in coordinate order."""
         return list(self.model.names)[1:]
+
+    @property
+    def continuous_mask(self) -> np.ndarray:
+        """(nq,) bool: True for the joints of :attr:`continuous_joints` (docs/design.md §1d)."""
+        return np.array([n in self.continuous_joints for n in self.joint_names], dtype=bool)
+
+    def edge_target(self, Q0, Q1) -> np.ndarray:
+        """Where the edge ``Q0 → Q1`` ends (rad; (nq,) or (K, nq)): ``Q1``, unwrapped to
+        ``Q0 + wrap(Q1 − Q0)`` on continuous joints, the shorter way round
+        (:func:`mpd_pin.arm.continuous.edge_target`, docs/design.md §1d)."""
+        from .continuous import edge_target
+
+        return edge_target(Q0, Q1, self.continuous_mask if self.continuous_joints else None)
 
     def fingerprint(self) -> str:
         """SHA-256 of everything that determines dynamics and collision geometry.

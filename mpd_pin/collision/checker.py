@@ -446,7 +446,8 @@ class CollisionChecker:
         return ok
 
     def edge_free(self, q0: Any, q1: Any, resolution: float, mode: str | None = None) -> bool:
-        """True if the straight joint-space edge q0 → q1 is collision-free.
+        """True if the straight joint-space edge q0 → q1 is collision-free (on continuous
+        joints the edge ends at ``arm.edge_target(q0, q1)``, the shorter way round, §1d).
 
         ``mode="certified"`` (the checker's default ``edge_mode``): proven free along
         its whole length (:mod:`mpd_pin.collision.motion`, "Certified edges");
@@ -459,7 +460,7 @@ class CollisionChecker:
         consecutive checks can be missed.
         """
         q0 = self._q(q0, "q0")
-        q1 = self._q(q1, "q1")
+        q1 = self.arm.edge_target(q0, self._q(q1, "q1"))  # shorter way round (§1d)
         r = self._resolution(resolution)
         mode = self._mode(mode)
         self._sync()
@@ -480,6 +481,7 @@ class CollisionChecker:
         Q1 = self._batch(Q1, "Q1")
         if Q0.shape != Q1.shape:
             raise ValueError(f"Q0 and Q1 must have the same shape, got {Q0.shape} and {Q1.shape}")
+        Q1 = self.arm.edge_target(Q0, Q1)  # shorter way round on continuous joints (§1d)
         r = self._resolution(resolution)
         mode = self._mode(mode)
         self._sync()

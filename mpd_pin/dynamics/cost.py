@@ -33,12 +33,15 @@ class EnergyCost:
 
     def describe(self) -> dict:
         """Plain data that determines the costs (hashed into roadmap keys)."""
-        return {
+        out = {
             "model": "quintic-rk4-E+",
             "drive": self.drive.describe(),
             "arm": self.drive.arm.fingerprint(),
             "dt": self.dt,
         }
+        if self.drive.arm.continuous_joints:  # edges the shorter way round (§1d)
+            out["shorter_way"] = list(self.drive.arm.continuous_joints)
+        return out
 
     def __call__(
         self,
@@ -57,7 +60,10 @@ class EnergyCost:
         durations: np.ndarray,
         progress: Callable[[int], None] | None = None,
     ) -> EdgeOutcomes:
-        """Energies, end errors and peak torques of the K edges (:func:`edge_outcomes`)."""
+        """Energies, end errors and peak torques of the K edges (:func:`edge_outcomes`);
+        on continuous joints each edge ends at ``arm.edge_target(Q0, Q1)``, the shorter
+        way round (docs/design.md §1d)."""
+        Q1 = self.drive.arm.edge_target(Q0, Q1)
         if self.executor is None or Q0.shape[0] <= self.chunk:
             return edge_outcomes(
                 self.drive, Q0, Q1, durations, self.dt, chunk=self.chunk, progress=progress

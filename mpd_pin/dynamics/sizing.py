@@ -29,9 +29,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..arm.model import Arm
-from .motor import DCMotor
+from .motor import DCMotor, Drive
 
-__all__ = ["MotorFrame", "MOTOR_FRAMES", "sized_motor", "sized_motors"]
+__all__ = ["MotorFrame", "MOTOR_FRAMES", "sized_motor", "sized_motors", "check_holding"]
 
 
 @dataclass(frozen=True)
@@ -117,3 +117,35 @@ def sized_motors(
         )[0]
         for k, name in enumerate(arm.joint_names)
     ]
+
+
+def check_holding(drive: Drive, q, what: str = "q", *, effort_limits: bool = True) -> None:
+    """ValueError naming the first joint whose motor cannot hold the arm still at ``q``
+    (rad) against gravity (docs/design.md §3g).
+
+    The test is the **stall torque** at the supply voltage: holding needs the current
+    i = G(q)/(n·Kt), hence the voltage R·i, so a joint with ``|G_k(q)| > n·Kt·V_max/R``
+    cannot be held at all (a motor without ``v_max`` never fails it). The continuous
+    torque is not a property of a general :class:`DCMotor` (only sized motors have one,
+    and theirs covers the effort limit); with ``effort_limits`` a holding torque above
+    the URDF effort limit (where it is positive) is refused too, since every edge from
+    or to ``q`` would then be refused by the effort rule (§4e).
+    """
+    arm = drive.arm
+    G = np.abs(arm.gravity(q))
+    stall = drive.torque_per_amp * drive.v_max / drive.R  # inf without a voltage limit
+    effort = np.asarray(arm.model.effortLimit, dtype=float)
+    for k, name in enumerate(arm.joint_names):
+        if G[k] > stall[k]:
+            raise ValueError(
+                f"{what}: the motor of joint {name!r} is too weak to hold the arm there: "
+                f"gravity needs {G[k]:.4g} N·m, its stall torque n·Kt·V_max/R is "
+                f"{stall[k]:.4g} N·m; use a stronger motor or gear ratio (e.g. [motor] "
+                'preset = "sized")'
+            )
+        if effort_limits and math.isfinite(effort[k]) and 0 < effort[k] < G[k]:
+            raise ValueError(
+                f"{what}: holding the arm there needs {G[k]:.4g} N·m at joint {name!r}, "
+                f"above its effort limit of {effort[k]:.4g} N·m (every edge from or to it "
+                "would be refused)"
+            )

@@ -162,7 +162,11 @@ def execute(
         look = np.vstack(
             [
                 roadmap.nodes[current][None],
-                edge_configurations(roadmap.nodes[current], roadmap.nodes[nxt], resolution),
+                edge_configurations(
+                    roadmap.nodes[current],
+                    arm.edge_target(roadmap.nodes[current], roadmap.nodes[nxt]),  # §1d
+                    resolution,
+                ),
             ]
         )
         seen = _sense(truth, world, look, float(sensor_range))

@@ -175,7 +175,9 @@ def plan_avoiding_hazards(
     def edge_margin(u: int, v: int) -> float:
         key = (min(u, v), max(u, v))
         if key not in margins:
-            Q = edge_configurations(roadmap.nodes[key[0]], roadmap.nodes[key[1]], resolution)
+            q0 = roadmap.nodes[key[0]]
+            q1 = checker.arm.edge_target(q0, roadmap.nodes[key[1]])  # shorter way (§1d)
+            Q = edge_configurations(q0, q1, resolution)
             margins[key] = min(checker.hazard_margin(q) for q in Q)
         return margins[key]
 

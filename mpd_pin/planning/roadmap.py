@@ -32,8 +32,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial import cKDTree
 
+from ..arm.continuous import nearest_neighbours
 from ..dynamics.cost import EnergyCost
 from ..dynamics.simulate import step_count
 from ..search import Graph
@@ -472,14 +472,13 @@ def _sample_nodes(checker, arm, start, goal, options: RoadmapOptions, tqdm, show
     return np.vstack([start, goal, samples])
 
 
-def _neighbour_pairs(nodes: np.ndarray, k: int) -> np.ndarray:
+def _neighbour_pairs(nodes: np.ndarray, k: int, periodic: np.ndarray | None = None) -> np.ndarray:
     """Connection: (P, 2) unique undirected pairs u < v joining each node to its ``k``
-    nearest neighbours (joint-space Euclidean, ``cKDTree``)."""
+    nearest neighbours (joint-space Euclidean, ``cKDTree``; round the circle on the
+    ``periodic`` joints, docs/design.md §1d)."""
     n = nodes.shape[0]
     k = min(k, n - 1)
-    tree = cKDTree(nodes)
-    _, nbr = tree.query(nodes, k=k + 1)
-    nbr = np.asarray(nbr).reshape(n, k + 1)
+    nbr = nearest_neighbours(nodes, k, periodic)
     a = np.repeat(np.arange(n), k + 1)
     b = nbr.ravel()
     keep = (b != a) & (b < n)
@@ -488,10 +487,12 @@ def _neighbour_pairs(nodes: np.ndarray, k: int) -> np.ndarray:
 
 
 def _free_pairs(checker, nodes: np.ndarray, pairs: np.ndarray, resolution: float) -> np.ndarray:
-    """Collision filtering: the pairs whose straight edge is free at ``resolution`` rad."""
+    """Collision filtering: the pairs whose straight edge is free at ``resolution`` rad
+    (the shorter way round on continuous joints, docs/design.md §1d)."""
     if not len(pairs):
         return pairs[np.zeros(0, bool)]
-    free = checker.edges_free(nodes[pairs[:, 0]], nodes[pairs[:, 1]], resolution)
+    Q0 = nodes[pairs[:, 0]]
+    free = checker.edges_free(Q0, checker.arm.edge_target(Q0, nodes[pairs[:, 1]]), resolution)
     return pairs[np.asarray(free, dtype=bool)]
 
 
@@ -502,13 +503,12 @@ def _cost_edges(cost: EnergyCost, nodes, pairs, options: RoadmapOptions, tqdm, s
     model = cost.drive.arm.model
     src = np.concatenate([pairs[:, 0], pairs[:, 1]]).astype(np.int64)
     dst = np.concatenate([pairs[:, 1], pairs[:, 0]]).astype(np.int64)
-    durations, raised = options.timing(nodes[src], nodes[dst], model.velocityLimit)
+    Q1 = cost.drive.arm.edge_target(nodes[src], nodes[dst])  # shorter way round (§1d)
+    durations, raised = options.timing(nodes[src], Q1, model.velocityLimit)
     with tqdm(
         total=src.size, desc="edge energies", unit="edge", disable=not show_progress, leave=False
     ) as bar:
-        out = cost.outcomes(
-            nodes[src], nodes[dst], durations, progress=lambda d: bar.update(d - bar.n)
-        )
+        out = cost.outcomes(nodes[src], Q1, durations, progress=lambda d: bar.update(d - bar.n))
     over = np.zeros(src.size, dtype=bool)
     if options.effort_limits and src.size:
         lim = np.asarray(model.effortLimit, dtype=float)
@@ -566,7 +566,7 @@ def build_roadmap(
     nodes = _sample_nodes(checker, arm, start, goal, options, tqdm, show_progress)
     timings["sampling"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    pairs = _neighbour_pairs(nodes, options.k)
+    pairs = _neighbour_pairs(nodes, options.k, arm.continuous_mask)
     timings["neighbours"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     pairs = _free_pairs(checker, nodes, pairs, options.resolution)

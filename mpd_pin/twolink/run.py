@@ -177,6 +177,7 @@ def result_dict(scn: DynamicScenario, res: DynamicPlanResult, seed: int | None) 
         "kind": "dynamic2link",
         "name": scn.name,
         "description": scn.description,
+        "warnings": [],  # as in energy results (mpd_pin/schemas/result.schema.json)
         "arm": prob.arm.name,
         "link_lengths": [res.kin.l1, res.kin.l2],
         "sample_time": ts,

@@ -76,3 +76,43 @@ def screenshots(
         assert proc.returncode == 0 and png.exists(), log.decode(errors="replace")[-2000:]
         out[name] = np.asarray(Image.open(png).convert("RGB"))
     return out
+
+
+_LEGEND_ROW = re.compile(
+    r'<div class="replay-legend" data-node="([^"]*)" data-color="#([0-9a-f]{6})" '
+    r'data-kind="([^"]*)"><span[^>]*>[^<]*</span> ([^<]*)'
+)
+
+
+def legend_rows(page: str) -> list[tuple[str, int, str, str]]:
+    """(scene node, colour 0xRRGGBB, kind, name) of every legend row of a replay page."""
+    import html
+
+    return [(html.unescape(node), int(color, 16), kind, html.unescape(name).strip())
+            for node, color, kind, name in _LEGEND_ROW.findall(page)]
+
+
+def line_points(command: dict) -> np.ndarray:
+    """(N, 3) float32 points of a set_object command of a meshcat Line."""
+    (geom,) = command["object"]["geometries"]
+    arr = geom["data"]["attributes"]["position"]["array"]
+    data = arr.data if hasattr(arr, "data") else arr
+    return np.frombuffer(data, dtype=np.float32).reshape(-1, 3)
+
+
+def dump_dom(page: Path, tmp: Path, virtual_time_ms: int) -> str:
+    """The DOM of ``page`` after ``virtual_time_ms`` of virtual time in headless Chromium
+    (compositor frames run, so requestAnimationFrame callbacks and the animation advance)."""
+    if not os.path.exists(CHROMIUM):
+        pytest.fail(f"{CHROMIUM} not found: install the Debian package 'chromium' (.ci/run does)")
+    args = [
+        CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+        "--disable-background-networking", "--disable-component-update", "--disable-sync",
+        f"--user-data-dir={tmp / ('profile-dom-' + page.stem + str(virtual_time_ms))}",
+        "--run-all-compositor-stages-before-draw", "--window-size=800,600", "--dump-dom",
+        f"--virtual-time-budget={virtual_time_ms}", "--host-resolver-rules=MAP * ~NOTFOUND",
+        page.resolve().as_uri(),
+    ]
+    proc = subprocess.run(args, capture_output=True, timeout=90)
+    assert proc.returncode == 0, proc.stderr.decode(errors="replace")[-2000:]
+    return proc.stdout.decode()

@@ -134,13 +134,25 @@ def _ee_positions(arm, Q):
 
 
 def _line_points(commands, name):
-    (cmd,) = [c for c in commands if c["type"] == "set_object"
-              and c["path"] == f"/meshcat/{rp.PATHS_NODE}/{name}"]
-    pos = cmd["object"]["geometries"][0]["data"]["attributes"]["position"]
-    assert pos["itemSize"] == 3
-    arr = pos["array"]  # msgpack extension 0x17: little-endian float32 array
-    assert arr.type == 0x17
-    return np.frombuffer(arr.data, dtype="<f4").reshape(-1, 3)
+    """Points of the path line ``name``; a growing trace (segments ``<name>/000``, …, each
+    starting where the previous one ends) joined into one."""
+    node = f"/meshcat/{rp.PATHS_NODE}/{name}"
+    cmds = sorted((c for c in commands if c["type"] == "set_object"
+                   and (c["path"] == node or c["path"].startswith(node + "/"))),
+                  key=lambda c: c["path"])
+    assert cmds and (len(cmds) == 1 or all(c["path"] != node for c in cmds))
+    pieces = []
+    for cmd in cmds:
+        pos = cmd["object"]["geometries"][0]["data"]["attributes"]["position"]
+        assert pos["itemSize"] == 3
+        arr = pos["array"]  # msgpack extension 0x17: little-endian float32 array
+        assert arr.type == 0x17
+        pts = np.frombuffer(arr.data, dtype="<f4").reshape(-1, 3)
+        if pieces:
+            np.testing.assert_array_equal(pieces[-1][-1], pts[0])
+            pts = pts[1:]
+        pieces.append(pts)
+    return np.concatenate(pieces)
 
 
 def _orange(img):

@@ -19,6 +19,7 @@ this test runs it:  ``python tests/test_notebooks.py [notebooks/NAME.ipynb ...]`
 from __future__ import annotations
 
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -69,6 +70,38 @@ def test_notebooks_exist():
         "04_table6_comparison.ipynb",
         "twolink_env2.ipynb",
     } <= names, names
+
+
+# Import name → the distribution that provides it (modules the notebooks import).
+_PROVIDED_BY = {"IPython": "ipykernel", "mpd_pin": "mpd-pin", "pinocchio": "pin"}
+_OPTIONAL = {"psutil"}  # imported in a try block with a fallback
+
+
+def _requirement_names(reqs) -> set[str]:
+    return {re.split(r"[<>=!~\[; ]", r, maxsplit=1)[0].strip().lower() for r in reqs}
+
+
+def test_notebooks_extra_and_readme():
+    """`pip install -e ".[notebooks]"` provides Jupyter and every module the notebooks import;
+    README says how to run them."""
+    import tomllib
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    extra = _requirement_names(project["optional-dependencies"]["notebooks"])
+    assert {"jupyterlab", "ipykernel", "nbclient", "nbformat"} <= extra
+    installed = extra | _requirement_names(project["dependencies"]) | {"mpd-pin"}
+    for path in NOTEBOOKS:
+        nb = nbformat.read(path, as_version=4)
+        for cell in nb.cells:
+            if cell.cell_type != "code":
+                continue
+            for mod in re.findall(r"^\s*(?:import|from)\s+(\w+)", cell.source, re.M):
+                if mod in sys.stdlib_module_names or mod in _OPTIONAL:
+                    continue
+                dist = _PROVIDED_BY.get(mod, mod).lower()
+                assert dist in installed, f"{path.name} imports {mod}: not in the notebooks extra"
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert 'pip install -e ".[notebooks]"' in readme and "jupyter lab notebooks/" in readme
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])

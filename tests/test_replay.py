@@ -16,10 +16,19 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
-from replay_helpers import animation_clips, decode_commands, screenshots, track
+from replay_helpers import (
+    animation_clips,
+    decode_commands,
+    dump_dom,
+    legend_rows,
+    line_points,
+    screenshots,
+    track,
+)
 
 import mpd_pin as mp
 from mpd_pin.viz import replay as rp
+from mpd_pin.viz import replay_page as rp_page
 from mpd_pin.world import Box, Cylinder, Hazard, Polygon, Sphere, World
 
 T_END = 2.0  # s, duration of the planar motion
@@ -124,15 +133,18 @@ def planar(tmp_path_factory):
     arm, world, times, Q = planar_scene()
     armless = dataclasses.replace(arm, visual_model=pin.GeometryModel())
     reveal = {"ghost": T_REVEAL}
+    plan = ee_path(arm, Q[::-1])[::20]  # a second trace, drawn whole: the motion reversed
+    paths = {"planned": plan, "end effector": ee_path(arm, Q)}
     pages = {
         "arm": rp.write_replay(arm, world, times, Q, tmp / "replay.html", reveal_times=reveal,
-                               paths={"end effector": ee_path(arm, Q)}, title="planar 3-link"),
+                               paths=paths, grow=["end effector"], title="planar 3-link"),
         "no_arm": rp.write_replay(armless, world, times, Q, tmp / "no_arm.html",
-                                  reveal_times=reveal, paths={"end effector": ee_path(arm, Q)},
+                                  reveal_times=reveal, paths=paths, grow=["end effector"],
                                   title="planar 3-link"),
         "no_reveal": rp.write_replay(arm, world, times, Q, tmp / "no_reveal.html",
-                                     paths={"end effector": ee_path(arm, Q)},
-                                     title="planar 3-link"),
+                                     paths=paths, grow=["end effector"], title="planar 3-link"),
+        "whole": rp.write_replay(arm, world, times, Q, tmp / "whole.html", reveal_times=reveal,
+                                 paths=paths, title="planar 3-link"),
     }
     return {"arm": arm, "world": world, "times": times, "Q": Q, "pages": pages, "tmp": tmp}
 
@@ -185,7 +197,8 @@ def test_planar_hidden_obstacle_turns_on_at_reveal_time(planar):
     drawn = {c["path"] for c in commands if c["type"] == "set_object"}
     for name in ("wall", "tri", "ghost"):
         assert f"/meshcat/{rp.WORLD_NODE}/obstacles/{name}/shape" in drawn
-    assert f"/meshcat/{rp.PATHS_NODE}/end effector" in drawn
+    assert f"/meshcat/{rp.PATHS_NODE}/planned" in drawn  # drawn whole
+    assert f"/meshcat/{rp.PATHS_NODE}/end effector/000" in drawn  # grows: segments
     # Without a reveal time the hidden obstacle never shows.
     clips = animation_clips(planar["pages"]["no_reveal"].read_text(encoding="utf-8"))
     _, visible = track(clips[f"/meshcat/{rp.WORLD_NODE}/obstacles/ghost"], "visible")
@@ -227,6 +240,97 @@ def test_planar_screenshot_shows_arm_and_revealed_obstacle(planar):
     r, g, b = img[shown].T
     orange = (r > 180) & (g > 90) & (g < 190) & (b < 60)
     assert orange.mean() > 0.8
+
+    # At the end the growing trace is complete: the page drawing it whole from the start looks
+    # the same, but for the caption's "(grows with the motion)" (top left).
+    differ = np.abs(img - shots["whole"].astype(int)).max(axis=2) > 40
+    caption = np.zeros_like(differ)
+    caption[:130, :400] = True
+    assert differ[caption].sum() > 0 and differ[~caption].sum() == 0
+
+
+def test_planar_legend_names_each_trace_and_marker_with_its_colour(planar):
+    arm, Q = planar["arm"], planar["Q"]
+    page = planar["pages"]["arm"].read_text(encoding="utf-8")
+    objects = {c["path"]: c for c in decode_commands(page) if c["type"] == "set_object"}
+    rows = legend_rows(page)
+    assert [(name, kind) for _, _, kind, name in rows] == [
+        ("planned", "line"), ("end effector", "growing line"),
+        ("start (end effector)", "marker"), ("goal (end effector)", "marker")]
+    colours = [color for _, color, _, _ in rows]
+    assert len(set(colours)) == 4  # distinct colours
+    whole, grown, start, goal = (node for node, _, _, _ in rows)
+    # The whole trace: one line of that colour with the given points.
+    assert objects[whole]["object"]["materials"][0]["color"] == colours[0]
+    plan = ee_path(arm, Q[::-1])[::20]
+    np.testing.assert_allclose(line_points(objects[whole]), plan, atol=1e-6)
+    # The growing trace: segments of that colour that together are the path, in order.
+    segs = sorted(p for p in objects if p.startswith(grown + "/"))
+    assert len(segs) == 100  # 201 samples in segments of 2 steps
+    assert {objects[p]["object"]["materials"][0]["color"] for p in segs} == {colours[1]}
+    pts = [line_points(objects[p]) for p in segs]
+    joined = np.concatenate([pts[0]] + [p[1:] for p in pts[1:]])
+    for a, b in zip(pts, pts[1:], strict=False):
+        np.testing.assert_array_equal(a[-1], b[0])  # consecutive segments share an end
+    np.testing.assert_allclose(joined, ee_path(arm, Q), atol=1e-6)
+    # Markers: spheres of their colours at the end effector's first and last position.
+    transforms = {c["path"]: c["matrix"] for c in decode_commands(page)
+                  if c["type"] == "set_transform"}
+    for node, color, q in ((start, colours[2], Q[0]), (goal, colours[3], Q[-1])):
+        assert objects[node]["object"]["geometries"][0]["type"] == "SphereGeometry"
+        assert objects[node]["object"]["materials"][0]["color"] == color
+        M = np.array(transforms[node]).reshape(4, 4).T  # column-major
+        np.testing.assert_allclose(M[:3, 3], ee_path(arm, q[None])[0], atol=1e-12)
+
+
+def test_planar_trace_grows_with_the_motion(planar):
+    times = planar["times"]
+    page = planar["pages"]["arm"].read_text(encoding="utf-8")
+    clips = animation_clips(page)
+    node = f"/meshcat/{rp.path_node('end effector')}"
+    bounds = rp.segment_bounds(N_PLANAR)
+    assert bounds.tolist() == list(range(0, N_PLANAR, 2))
+    frames = np.floor((times - times[0]) * 100.0 + 0.5).astype(int)  # as the keyframe test
+    last = int(frames[-1])
+    static_hidden = {c["path"] for c in decode_commands(page) if c["type"] == "set_property"
+                     and c["property"] == "visible" and c["value"] is False}
+    for j, hi in enumerate(bounds[1:]):
+        seg = f"{node}/{j:03d}"
+        keyframes, visible = track(clips[seg], "visible")
+        at = dict(zip(keyframes, visible, strict=True))
+        assert at[0] is False and at[last] is True  # t = 0: hidden; end: shown
+        on = frames[hi]  # shown from the frame the motion reaches the segment's end
+        assert keyframes[visible.index(True)] == on
+        assert seg in static_hidden  # hidden before the animation starts too
+    # The trace drawn whole has no visibility track.
+    assert f"/meshcat/{rp.path_node('planned')}" not in clips
+
+
+def test_planar_clock_runs_in_the_browser(planar):
+    page = planar["pages"]["arm"]
+    text = page.read_text(encoding="utf-8")
+    assert f'<div id="{rp_page.CLOCK_ID}"' in text and "t = 0.00 s / 2.00 s" in text
+    clock = re.compile(r'<div id="replay-clock" data-time="([0-9.]+)"[^>]*>([^<]*)<')
+    end = clock.search(dump_dom(page, planar["tmp"], 20_000))
+    assert end is not None
+    assert float(end.group(1)) == pytest.approx(T_END) and end.group(2) == "t = 2.00 s / 2.00 s"
+    # With the clock's script disabled the element keeps its initial 0: the value above was
+    # written by the script from the playing animation, not by the page generator.
+    assert text.count("requestAnimationFrame(tick);") == 2
+    frozen = planar["tmp"] / "frozen.html"
+    frozen.write_text(text.replace("requestAnimationFrame(tick);", ""), encoding="utf-8")
+    still = clock.search(dump_dom(frozen, planar["tmp"], 20_000))
+    assert float(still.group(1)) == 0.0 and still.group(2) == "t = 0.00 s / 2.00 s"
+
+
+def test_grow_checks_its_paths(tmp_path, server_pids):
+    arm, world, times, Q = planar_scene()
+    with pytest.raises(ValueError, match="not one of the paths"):
+        rp.write_replay(arm, world, times[:10], Q[:10], tmp_path / "g.html", grow=["x"])
+    with pytest.raises(ValueError, match="one point per sample"):
+        rp.write_replay(arm, world, times[:10], Q[:10], tmp_path / "g.html",
+                        paths={"x": np.zeros((4, 3))}, grow=["x"])
+    assert not server_pids
 
 
 # ------------------------------------------------------------------------- Panda

@@ -159,9 +159,15 @@ def write_plots(
         matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    from ..viz.plots import plot_arm_path, plot_cumulative_energy, plot_joint_angles
+    from ..viz.plots import Detection, plot_arm_path, plot_cumulative_energy, plot_joint_angles
 
     roadmap, series, path = setup.roadmap, check.series, plan.path
+    t_nodes = series["node_times"]  # the arm is at path[step] at t_nodes[step]
+    detections = [
+        Detection(roadmap.nodes[ev.node], float(t_nodes[min(ev.step, len(t_nodes) - 1)]),
+                  tuple(ev.revealed))
+        for ev in (plan.execution.replans if plan.execution is not None else ())
+    ]
     names = scn.arm.joint_names
     others = {k: roadmap.nodes[v] for k, v in plan.other_paths.items()}
     compare = None
@@ -177,6 +183,8 @@ def write_plots(
             roadmap.nodes[path],
             Q_motion=series["q"],
             other_paths=others,
+            node_times=t_nodes,
+            detections=detections,
             title=f"{scn.name}: {float(plan.energy.sum()):.4g} J, {len(path)} nodes",
         ),
         "joint_angles.png": plot_joint_angles(
@@ -235,6 +243,7 @@ def write_replay_html(
         out_dir / "replay.html",
         reveal_times=reveal,
         paths=lines,
+        grow=["end effector (travelled)"],  # grows with the motion; the plans are drawn whole
         title=scn.name,
     )
     return {

@@ -125,9 +125,12 @@ def plot_fcs_maps(
                 draw_arm(ax, kin, q[k], color="k", lw=2.0)
             ax.set_title(f"{titles[c]}, sample {k} (t = {m.t:.2f} s)", fontsize=9)
             ax.tick_params(labelsize=7)
+            ax.set_xlabel("x (m)", fontsize=8)
+            ax.set_ylabel("z (m)", fontsize=8)
             ax.label_outer()
     fig.suptitle("Free Cartesian space (white: unreachable or in collision)")
-    fig.subplots_adjust(left=0.07, right=0.98, bottom=0.04, top=1.0 - 0.8 / fig.get_figheight(),
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.5 / fig.get_figheight(),
+                        top=1.0 - 0.8 / fig.get_figheight(),
                         wspace=0.05, hspace=0.18)
     return fig
 
@@ -162,16 +165,30 @@ def plot_paths(
     ax.legend(fontsize=8, loc="lower left")
     ax.set_title("(a) end-effector paths (obstacles at t = 0, tracks dashed)")
     if cost_curve:
-        c = np.array([np.nan if v is None else v for v in cost_curve], dtype=float)
-        c[~np.isfinite(c)] = np.nan
-        ax2.plot(np.arange(len(c)), c, "-", color=PSO_COLOR)
-        ax2.axhline(_length(dstar_points), color=DSTAR_COLOR, ls="--", lw=1, label="D* length")
-        ax2.set_xlabel("iteration")
-        ax2.set_ylabel("best path length (m)")
-        ax2.legend(fontsize=8)
+        _plot_cost_curve(ax2, cost_curve, _length(dstar_points))
     ax2.set_title("(b) PSO cost function")
     fig.tight_layout()
     return fig
+
+
+def _plot_cost_curve(ax, cost_curve: Sequence[float | None], dstar_length: float) -> None:
+    """PSO best cost (m) per iteration from iteration 0 (after initialisation, §6f). While no
+    particle is feasible yet the best cost is ∞ (``None`` in result.json): those iterations
+    are shaded and labelled instead of leaving the curve to start later unexplained."""
+    c = np.array([np.nan if v is None else v for v in cost_curve], dtype=float)
+    c[~np.isfinite(c)] = np.nan
+    it = np.arange(len(c))
+    ax.plot(it, c, "-", color=PSO_COLOR, label="best path length so far")
+    ax.axhline(dstar_length, color=DSTAR_COLOR, ls="--", lw=1, label="D* length")
+    feasible = np.flatnonzero(np.isfinite(c))
+    first = int(feasible[0]) if len(feasible) else len(c)
+    if first > 0:
+        ax.axvspan(-0.5, first - 0.5, color="0.85", zorder=0, gid="no_feasible_particle",
+                   label=f"iterations 0–{first - 1}: no feasible particle (cost = ∞)")
+    ax.set_xlim(-0.5, max(len(c) - 0.5, 1.0))
+    ax.set_xlabel("iteration (0 = initial swarm)")
+    ax.set_ylabel("best path length (m)")
+    ax.legend(fontsize=8, loc="center right")
 
 
 def _length(p: np.ndarray) -> float:
@@ -206,13 +223,15 @@ def plot_arm_snapshots(
         tag = f" [{kinds[k]}]" if k in kinds else ""
         ax.set_title(f"sample {k} (t = {k * scene.ts:.2f} s){tag}", fontsize=9)
         ax.tick_params(labelsize=7)
+        ax.set_xlabel("x (m)", fontsize=8)
+        ax.set_ylabel("z (m)", fontsize=8)
         ax.label_outer()
     for ax in axes[len(samples):]:
         ax.set_visible(False)
     if title:
         fig.suptitle(title, fontsize=10)
-    fig.subplots_adjust(left=0.07, right=0.98, bottom=0.05, top=1.0 - 0.75 / fig.get_figheight(),
-                        wspace=0.05, hspace=0.2)
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.6 / fig.get_figheight(),
+                        top=1.0 - 0.75 / fig.get_figheight(), wspace=0.05, hspace=0.2)
     return fig
 
 
@@ -236,7 +255,7 @@ def plot_joint_changes(ts: float, q: np.ndarray, *, title: str = "change in join
 
 def plot_obstacle_motion(kin: TwoLinkKinematics, scene: MovingScene, duration: float) -> Figure:
     """Centre tracks of the obstacles over [0, duration] s, marked every 10 samples (Fig. 4)."""
-    fig = Figure(figsize=(5, 5))
+    fig = Figure(figsize=(5.5, 5.8))
     ax = fig.subplots()
     _setup_ax(ax, kin)
     n = max(2, int(round(duration / scene.ts)) + 1)
@@ -248,7 +267,7 @@ def plot_obstacle_motion(kin: TwoLinkKinematics, scene: MovingScene, duration: f
         ax.add_patch(Circle(c[0, i], ob.radius, color=OBSTACLE_COLOR, alpha=0.3))
     if scene.obstacles:
         ax.legend(fontsize=8)
-    ax.set_title(f"obstacle motion over {duration:.2f} s (dots every 10 samples)")
+    ax.set_title(f"obstacle motion over {duration:.2f} s\n(centre tracks, dots every 10 samples)")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("z (m)")
     fig.tight_layout()

@@ -346,7 +346,9 @@ def write_plots(scn: DynamicScenario, res: DynamicPlanResult, out_dir: Path) -> 
         ),
         "pso_motion.png": plots.plot_arm_snapshots(
             kin, scene, mot.q, snaps or _snapshot_samples(K, []), points=mot.points,
-            title=f"{scn.name}: D* based on PSO motion",
+            title=f"{scn.name}: " + ("PSO-smoothed motion (via points on the D* motion)"
+                                    if res.pso_improved else
+                                    "executed motion = D* motion (PSO found nothing shorter)"),
         ),
         "joint_angles.png": plot_joint_angles(
             np.arange(len(mot.q)) * ts, mot.q, ("q1", "q2"), marker="o",

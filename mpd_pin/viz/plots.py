@@ -13,6 +13,7 @@ All functions return a ``matplotlib.figure.Figure`` and never call ``show``.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -28,6 +29,10 @@ __all__ = [
     "ee_trace",
     "is_planar_xz",
     "plot_arm_path",
+    "Detection",
+    "chain_reach",
+    "clearance_band_xz",
+    "draw_clearance_bands_xz",
     "plot_joint_angles",
     "plot_cumulative_energy",
 ]
@@ -203,6 +208,214 @@ def ee_trace(arm: Arm, Q: np.ndarray) -> np.ndarray:
     return np.array([arm_points(arm, q)[-1] for q in np.asarray(Q, float)])
 
 
+class Detection(NamedTuple):
+    """Where and when sensing revealed hidden obstacles during execution (docs/design.md §5e).
+
+    ``q`` (rad) the configuration of the node the arm was at, ``t`` (s) its time along the
+    motion, ``names`` the obstacles revealed there.
+    """
+
+    q: np.ndarray
+    t: float
+    names: tuple[str, ...]
+
+
+START_COLOR = "#2a9d8f"
+GOAL_COLOR = "#e63946"
+TRACE_COLOR = "#e07a5f"
+OTHER_COLORS = ("#81b29a", "#f2cc8f", "#3d405b")
+#: Path poses: light → dark along the path (the colour bar explains it).
+POSE_CMAP_RANGE = (0.35, 1.0)
+
+
+def _pose_colormap():
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+
+    return ListedColormap(plt.cm.Blues(np.linspace(*POSE_CMAP_RANGE, 256)), name="poses")
+
+
+def chain_reach(arm: Arm) -> float:
+    """Upper bound of the arm's reach (m): the summed distances base joint → … → end effector
+    at the neutral configuration (exact for a planar arm stretched straight)."""
+    p = arm_points(arm, pin.neutral(arm.model))
+    return float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
+
+
+def clearance_band_xz(shape, clearance: float, n: int = 48) -> np.ndarray | None:
+    """Cross-section (y = 0) of ``shape`` grown by ``clearance`` (m): the convex hull of its
+    section's vertices offset by an ``n``-gon of radius ``clearance`` (the sections are
+    convex). Counter-clockwise (M, 2) array of (x, z) (m); None if the shape misses the plane."""
+    section = shape.section_xz()
+    if section is None:
+        return None
+    a = 2.0 * np.pi * np.arange(n) / n
+    disc = clearance * np.column_stack([np.cos(a), np.sin(a)])
+    pts = (section[:, None, :] + disc[None, :, :]).reshape(-1, 2)
+    return _convex_hull(pts)
+
+
+def _convex_hull(pts: np.ndarray) -> np.ndarray:
+    """Counter-clockwise convex hull of 2-D points (Andrew's monotone chain)."""
+    P = sorted(set(map(tuple, np.round(pts, 12))))
+
+    def half(points):
+        out: list = []
+        for p in points:
+            while len(out) >= 2 and (
+                (out[-1][0] - out[-2][0]) * (p[1] - out[-2][1])
+                - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0])
+            ) <= 0:
+                out.pop()
+            out.append(p)
+        return out[:-1]
+
+    return np.array(half(P) + half(P[::-1]))
+
+
+def draw_clearance_bands_xz(ax, world: World | None) -> list:
+    """Dashed outline (y = 0 section) of every hazard's clearance band — the zone grown by
+    its ``clearance`` that a path may not enter (docs/design.md §5e). Each patch's ``gid``
+    is ``"<name>:clearance"``; the first carries the legend label. Returns the patches."""
+    from matplotlib.colors import to_rgba
+    from matplotlib.patches import Polygon as PolygonPatch
+
+    out = []
+    for hz in world.hazards if world is not None else ():
+        band = clearance_band_xz(hz.shape, hz.clearance) if hz.clearance > 0 else None
+        if band is None:
+            continue
+        patch = PolygonPatch(
+            band, closed=True, facecolor=to_rgba(HAZARD_COLOR, 0.12), edgecolor=HAZARD_COLOR,
+            linestyle="--", lw=1.2, gid=f"{hz.name}:clearance",
+            label=f"hazard clearance band ({hz.clearance:g} m)" if not out else None,
+        )
+        ax.add_patch(patch)
+        out.append(patch)
+    return out
+
+
+def _planar_limits(ax, arm: Arm, world: World | None, extra: list[np.ndarray]) -> None:
+    """Square x–z limits containing the arm's reach disc, every obstacle and clearance band,
+    and the ``extra`` (k, 2) points, with a 5 % margin."""
+    base = arm_points(arm, pin.neutral(arm.model))[0][[0, 2]]
+    r = chain_reach(arm)
+    pts = [base + r * np.array([[-1, -1], [1, 1]]), *extra]
+    for item, shape, _, _ in _drawn_items(world, True):
+        sec = shape.section_xz()
+        if sec is not None:
+            pts.append(sec)
+        if isinstance(item, Hazard) and item.clearance > 0 and sec is not None:
+            pts.append(clearance_band_xz(shape, item.clearance))
+    P = np.concatenate(pts)
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    centre, half = (lo + hi) / 2.0, float(np.max(hi - lo)) / 2.0 * 1.05
+    ax.set_xlim(centre[0] - half, centre[0] + half)
+    ax.set_ylim(centre[1] - half, centre[1] + half)
+
+
+def _time_norm(n: int, node_times: Sequence[float] | None):
+    """(Normalize, colour-bar label) of the pose shading: time (s) if known, else node index."""
+    from matplotlib.colors import Normalize
+
+    if node_times is not None and len(node_times) == n and n > 1:
+        t = np.asarray(node_times, float)
+        return Normalize(float(t[0]), float(t[-1])), t, "time along path (s): light → dark"
+    idx = np.arange(n, dtype=float)
+    return Normalize(0.0, max(n - 1.0, 1.0)), idx, "node along path: light → dark"
+
+
+def _mark_ends(ax, p0: np.ndarray, p1: np.ndarray, planar: bool) -> None:
+    """End-effector markers labelled "start" and "goal"."""
+    for p, label, marker, color in ((p0, "start", "o", START_COLOR), (p1, "goal", "*", GOAL_COLOR)):
+        xyz = (p[0], p[2]) if planar else (p[0], p[1], p[2])
+        ax.plot(*[[c] for c in xyz], marker=marker, ms=13 if marker == "*" else 10,
+                color=color, mec="black", ls="none", zorder=6, label=label)
+
+
+def _mark_detections(ax, arm: Arm, detections: Sequence[Detection], planar: bool) -> None:
+    """A cross at the end effector of each node where sensing revealed obstacles, annotated
+    with the obstacles and the time (s)."""
+    for k, det in enumerate(detections):
+        p = arm_points(arm, det.q)[-1]
+        text = f"{', '.join(det.names)} detected\nat t = {det.t:.2f} s"
+        label = "new obstacle detected (arm's node)" if k == 0 else None
+        if planar:
+            ax.plot([p[0]], [p[2]], "X", ms=12, color=HIDDEN_COLOR, mec="white", zorder=7,
+                    ls="none", label=label)
+            left = p[0] > float(np.mean(ax.get_xlim()))  # text towards the middle
+            ax.annotate(text, (p[0], p[2]), xytext=(-14 if left else 14, -30),
+                        textcoords="offset points", ha="right" if left else "left",
+                        fontsize=8, color=HIDDEN_COLOR, zorder=7,
+                        arrowprops={"arrowstyle": "->", "color": HIDDEN_COLOR}, gid="detection")
+        else:
+            ax.plot([p[0]], [p[1]], [p[2]], "X", ms=12, color=HIDDEN_COLOR, ls="none",
+                    label=label)
+            ax.text(p[0], p[1], p[2], " " + text.replace("\n", " "), fontsize=8,
+                    color=HIDDEN_COLOR, gid="detection")
+
+
+def _draw_planar(ax, arm, world, Q_nodes, trace, others, colors) -> None:
+    """The x–z plane content of :func:`plot_arm_path` (poses, traces, obstacles, bands)."""
+    from matplotlib.patches import Circle
+
+    draw_world_xz(ax, world)
+    draw_clearance_bands_xz(ax, world)
+    for k, (q, c) in enumerate(zip(Q_nodes, colors, strict=True)):
+        p = arm_points(arm, q)
+        ax.plot(p[:, 0], p[:, 2], "-o", color=c, lw=2, ms=3,
+                label="arm at each path node" if k == 0 else None)
+    ax.plot(trace[:, 0], trace[:, 2], "-", color=TRACE_COLOR, lw=1.5,
+            label="end-effector trace (travelled)")
+    for (name, Qo), col in zip(others.items(), OTHER_COLORS, strict=False):
+        tr = ee_trace(arm, Qo)
+        ax.plot(tr[:, 0], tr[:, 2], "--", color=col, lw=1.5, label=f"{name}: end effector")
+        for k, q in enumerate(Qo):
+            p = arm_points(arm, q)
+            ax.plot(p[:, 0], p[:, 2], ":", color=col, lw=1.2, alpha=0.8,
+                    label=f"{name}: arm poses" if k == 0 else None)
+    ax.plot([0], [0], "ks", ms=8, label="base")
+    base, reach = arm_points(arm, pin.neutral(arm.model))[0], chain_reach(arm)
+    ax.add_patch(Circle((base[0], base[2]), reach, fill=False, ls=":", lw=0.8, color="0.6",
+                        gid="reach", label=f"reach ({reach:.2f} m)"))
+    pts = [trace[:, [0, 2]]] + [arm_points(arm, q)[:, [0, 2]] for q in Q_nodes]
+    pts += [ee_trace(arm, Qo)[:, [0, 2]] for Qo in others.values()]
+    _planar_limits(ax, arm, world, pts)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("z (m)")
+
+
+def _draw_3d(ax, arm, world, Q_nodes, trace, others, colors) -> None:
+    """The 3-D content of :func:`plot_arm_path`, framed with equal scales on all axes."""
+    ax.plot(trace[:, 0], trace[:, 1], trace[:, 2], "-", color=TRACE_COLOR,
+            label="end-effector trace (travelled)")
+    for k, (q, c) in enumerate(zip(Q_nodes, colors, strict=True)):
+        p = arm_points(arm, q)
+        ax.plot(p[:, 0], p[:, 1], p[:, 2], "-o", color=c, alpha=0.7, ms=2,
+                label="arm at each path node" if k == 0 else None)
+    draw_world_3d(ax, world)
+    for (name, Qo), col in zip(others.items(), OTHER_COLORS, strict=False):
+        tr = ee_trace(arm, Qo)
+        ax.plot(tr[:, 0], tr[:, 1], tr[:, 2], "--", color=col, lw=1.5,
+                label=f"{name}: end effector")
+    pts = [trace, np.zeros((1, 3))]
+    pts += [arm_points(arm, q) for q in Q_nodes]
+    for item in world or ():
+        shape = item.shape if isinstance(item, Hazard) else item
+        pts += shape_faces(shape)
+    P = np.concatenate(pts)
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    centre, half = (lo + hi) / 2.0, max(float(np.max(hi - lo)) / 2.0, 1e-3) * 1.05
+    ax.set_xlim(centre[0] - half, centre[0] + half)
+    ax.set_ylim(centre[1] - half, centre[1] + half)
+    ax.set_zlim(centre[2] - half, centre[2] + half)
+    ax.set_box_aspect((1.0, 1.0, 1.0))
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_zlabel("z (m)")
+
+
 def plot_arm_path(
     arm: Arm,
     world: World | None,
@@ -211,73 +424,51 @@ def plot_arm_path(
     Q_motion: np.ndarray | None = None,
     other_paths: dict[str, np.ndarray] | None = None,
     title: str = "",
+    node_times: Sequence[float] | None = None,
+    detections: Sequence[Detection] = (),
+    start: np.ndarray | None = None,
+    goal: np.ndarray | None = None,
 ):
-    """The arm at each path node (light → dark) over the world, with the end-effector trace.
+    """The arm at each path node over the world, with the end-effector trace (docs/design.md §7c).
 
-    ``Q_nodes`` (n, nq) path configurations; ``Q_motion`` (m, nq) the simulated
-    motion for the trace; ``other_paths`` name → (k, nq) node configurations of
-    paths drawn for comparison (e.g. the path before re-planning).
+    ``Q_nodes`` (n, nq) path configurations (rad), shaded light → dark along the path and
+    explained by a colour bar (time, s, with ``node_times`` — the arm is at node k at
+    ``node_times[k]`` — else the node index); ``Q_motion`` (m, nq) the simulated motion for
+    the trace; ``other_paths`` name → (k, nq) node configurations of paths drawn for
+    comparison (e.g. the path before re-planning); ``detections`` where hidden obstacles were
+    revealed (marked and annotated with the time). The end effector's start and goal are
+    marked — at ``start``/``goal`` (rad) if given (a figure of part of a path), else at the
+    first and last node; hazards' clearance bands are drawn (planar). Planar arms: axis
+    limits contain the arm's reach (:func:`chain_reach`), every obstacle and every band.
     """
     import matplotlib.pyplot as plt
+    from matplotlib.cm import ScalarMappable
 
     Q_nodes = np.asarray(Q_nodes, float)
+    others = {k: np.asarray(v, float) for k, v in (other_paths or {}).items()}
     planar = is_planar_xz(arm)
     trace = ee_trace(arm, Q_motion if Q_motion is not None else Q_nodes)
+    cmap = _pose_colormap()
+    norm, tk, cbar_label = _time_norm(len(Q_nodes), node_times)
+    colors = cmap(norm(tk))
+    fig = plt.figure(figsize=(8, 8.6) if planar else (8, 8))
     if planar:
-        fig, ax = plt.subplots(figsize=(7, 6))
-        draw_world_xz(ax, world)
-        shades = plt.cm.Blues(np.linspace(0.35, 1.0, len(Q_nodes)))
-        for q, c in zip(Q_nodes, shades, strict=True):
-            p = arm_points(arm, q)
-            ax.plot(p[:, 0], p[:, 2], "-o", color=c, lw=2, ms=3)
-        ax.plot(trace[:, 0], trace[:, 2], "-", color="#e07a5f", lw=1.5, label="end effector")
-        for (name, Qo), col in zip(
-            (other_paths or {}).items(), ["#81b29a", "#f2cc8f", "#3d405b"], strict=False
-        ):
-            tr = ee_trace(arm, np.asarray(Qo, float))
-            ax.plot(tr[:, 0], tr[:, 2], "--", color=col, lw=1.5, label=name)
-            for q in np.asarray(Qo, float):
-                p = arm_points(arm, q)
-                ax.plot(p[:, 0], p[:, 2], ":", color=col, lw=1.2, alpha=0.8)
-        ax.plot([0], [0], "ks", ms=8)
-        reach = np.max(np.linalg.norm(arm_points(arm, Q_nodes[0])[:, [0, 2]], axis=1)) * 1.1
-        reach = max(reach, float(np.max(np.abs(trace[:, [0, 2]]))) * 1.1)
-        ax.set_xlim(-reach, reach)
-        ax.set_ylim(-reach, reach)
-        ax.set_aspect("equal")
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("z (m)")
-        ax.legend(loc="lower right", fontsize="small")
+        ax = fig.add_subplot()
+        _draw_planar(ax, arm, world, Q_nodes, trace, others, colors)
     else:
-        fig = plt.figure(figsize=(7, 6))
         ax = fig.add_subplot(projection="3d")
-        ax.plot(trace[:, 0], trace[:, 1], trace[:, 2], "-", color="#e07a5f", label="end effector")
-        for q in Q_nodes:
-            p = arm_points(arm, q)
-            ax.plot(p[:, 0], p[:, 1], p[:, 2], "-o", color="#3d5a80", alpha=0.5, ms=2)
-        draw_world_3d(ax, world)
-        for (name, Qo), col in zip(
-            (other_paths or {}).items(), ["#81b29a", "#f2cc8f", "#3d405b"], strict=False
-        ):
-            tr = ee_trace(arm, np.asarray(Qo, float))
-            ax.plot(tr[:, 0], tr[:, 1], tr[:, 2], "--", color=col, lw=1.5, label=name)
-        # Equal scale on all axes, framing the arm, the traces and the obstacles.
-        pts = [trace, np.zeros((1, 3))]
-        pts += [arm_points(arm, q) for q in Q_nodes]
-        for item in world or ():
-            shape = item.shape if isinstance(item, Hazard) else item
-            pts += shape_faces(shape)
-        P = np.concatenate(pts)
-        lo, hi = P.min(axis=0), P.max(axis=0)
-        centre, half = (lo + hi) / 2.0, max(float(np.max(hi - lo)) / 2.0, 1e-3) * 1.05
-        ax.set_xlim(centre[0] - half, centre[0] + half)
-        ax.set_ylim(centre[1] - half, centre[1] + half)
-        ax.set_zlim(centre[2] - half, centre[2] + half)
-        ax.set_box_aspect((1.0, 1.0, 1.0))
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("y (m)")
-        ax.set_zlabel("z (m)")
-        ax.legend(loc="upper right", fontsize="small")
+        _draw_3d(ax, arm, world, Q_nodes, trace, others, colors)
+    q0 = Q_nodes[0] if start is None else np.asarray(start, float)
+    q1 = Q_nodes[-1] if goal is None else np.asarray(goal, float)
+    ends = arm_points(arm, q0)[-1], arm_points(arm, q1)[-1]
+    _mark_ends(ax, *ends, planar)
+    _mark_detections(ax, arm, detections, planar)
+    cbar = fig.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.7, pad=0.02)
+    cbar.set_label(cbar_label)
+    if planar:  # below the axes; 3-D: in its upper left corner (the view leaves room there)
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=2, fontsize="small")
+    else:
+        ax.legend(loc="upper left", fontsize="small")
     ax.set_title(title or f"{arm.name}: path of {len(Q_nodes)} nodes")
     fig.tight_layout()
     return fig

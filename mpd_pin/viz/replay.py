@@ -25,6 +25,17 @@ A hidden obstacle's node ``/meshcat/world/<obstacles|hazards>/<name>`` gets a
 boolean ``visible`` track: off at frame 0, on from the frame of its reveal time
 (rounded like a sample's time).
 
+Traces, markers, legend and clock
+---------------------------------
+Paths named in ``grow`` (one point per sample: the travelled end-effector trace) are split
+into about :data:`GROW_SEGMENTS` line segments ``/meshcat/paths/<name>/<NNN>``, each hidden at
+frame 0 and shown from the frame of its last sample, so the trace grows behind the arm; other
+paths (plans known at t = 0) are one line ``/meshcat/paths/<name>``. Spheres
+``/meshcat/markers/start`` and ``/markers/goal`` mark the end effector at the first and last
+sample. meshcat draws no text, so the page carries an HTML caption (:mod:`.replay_page`): the
+title, a clock (elapsed time, s, read from the viewer's animator while it plays) and one
+legend row per trace and marker, naming its scene node and colour.
+
 The page
 --------
 meshcat's static page starts one ``fetch`` per scene command and they finish in no
@@ -39,17 +50,14 @@ process group and reaped before :func:`write_replay` returns, also on errors.
 
 from __future__ import annotations
 
-import base64
 import contextlib
-import html
 import io
 import math
 import os
-import re
 import signal
 import subprocess
 import warnings
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -65,24 +73,34 @@ import zmq
 from pinocchio.visualize import MeshcatVisualizer
 
 from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
+from .replay_page import LegendRow, decorate, sequence_commands
 
 if TYPE_CHECKING:
     from ..arm.model import Arm
 
 __all__ = [
-    "write_replay", "keyframe_indices", "obstacle_node", "ARM_NODE", "WORLD_NODE", "PATHS_NODE"
+    "write_replay", "keyframe_indices", "obstacle_node", "path_node", "segment_bounds",
+    "ARM_NODE", "WORLD_NODE", "PATHS_NODE", "MARKERS_NODE",
 ]
 
-#: Scene paths (below meshcat's root ``/meshcat``) of the arm, the world and the paths.
+#: Scene paths (below meshcat's root ``/meshcat``) of the arm, the world, the paths and the
+#: start/goal markers.
 ARM_NODE = "arm"
 WORLD_NODE = "world"
 PATHS_NODE = "paths"
+MARKERS_NODE = "markers"
 
 OBSTACLE_COLOR = 0x8E9AA8  # blue-grey
 HIDDEN_COLOR = 0xF08C00  # orange: obstacles unknown at planning time
 HAZARD_COLOR = 0xE01010  # red, translucent
 HAZARD_OPACITY = 0.35
 PATH_COLORS = (0xFFD21F, 0x2EE6A8, 0xFF5FD2, 0x5FB4FF, 0xFFFFFF)
+START_COLOR = 0x2A9D8F  # as in path.png
+GOAL_COLOR = 0xE63946
+MARKER_RADIUS = 0.03  # m
+#: A growing trace is drawn as about this many segments, each shown from the frame the motion
+#: reaches its end.
+GROW_SEGMENTS = 100
 
 _SERVER_TIMEOUT_MS = 120_000  # a dead server raises instead of hanging the caller
 _TAN_HALF_FOV = math.tan(math.radians(75.0) / 2.0)  # meshcat's default camera: 75° vertical
@@ -346,6 +364,83 @@ def _draw_world(vis, world: World, reveal: dict[str, int]) -> list[tuple[str, np
 
 
 # ---------------------------------------------------------------- main entry
+def segment_bounds(n: int, segments: int = GROW_SEGMENTS) -> np.ndarray:
+    """Sample indices 0 = b_0 < b_1 < … < b_m = n − 1 cutting a growing trace of ``n ≥ 2``
+    points into m ≤ ``segments`` pieces; piece j joins points b_j … b_{j+1}."""
+    stride = max(1, math.ceil((n - 1) / max(1, int(segments))))
+    b = np.arange(0, n - 1, stride)
+    return np.append(b, n - 1)
+
+
+def path_node(name: str) -> str:
+    """Scene path (below ``/meshcat``) of the line (or the segments) of the path ``name``."""
+    return f"{PATHS_NODE}/{_node_name(name)}"
+
+
+def _draw_paths(vis, lines: dict[str, np.ndarray], grow: set[str], frames: np.ndarray):
+    """Add the path lines; a growing one as segments hidden until the motion reaches their
+    end. Returns (legend rows, [(segment node, frame it appears)])."""
+    legend, segments = [], []
+    for i, (name, pts) in enumerate(lines.items()):
+        color = PATH_COLORS[i % len(PATH_COLORS)]
+        node = path_node(name)
+        material = mg.LineBasicMaterial(color=color, linewidth=2)
+        if name not in grow or len(frames) < 2:
+            vis[node].set_object(mg.Line(mg.PointsGeometry(pts.T), material))
+            legend.append(LegendRow(name, color, node, "line"))
+            continue
+        b = segment_bounds(len(pts))
+        for j, (lo, hi) in enumerate(zip(b[:-1], b[1:], strict=True)):
+            seg = f"{node}/{j:03d}"
+            vis[seg].set_object(mg.Line(mg.PointsGeometry(pts[lo:hi + 1].T), material))
+            vis[seg].set_property("visible", False)  # as at frame 0
+            segments.append((seg, int(frames[hi])))
+        legend.append(LegendRow(name, color, node, "growing line"))
+    return legend, segments
+
+
+def _draw_markers(vis, arm: Arm, q: np.ndarray) -> list[LegendRow]:
+    """Spheres at the end effector's start and goal (its position at the first and last
+    sample); returns their legend rows."""
+    from .plots import ee_trace
+
+    rows = []
+    for name, p, color in zip(("start", "goal"), ee_trace(arm, q[[0, -1]]),
+                              (START_COLOR, GOAL_COLOR), strict=True):
+        node = f"{MARKERS_NODE}/{name}"
+        vis[node].set_object(mg.Sphere(MARKER_RADIUS), mg.MeshLambertMaterial(color=color))
+        T = np.eye(4)
+        T[:3, 3] = p
+        vis[node].set_transform(T)
+        rows.append(LegendRow(f"{name} (end effector)", color, node, "marker"))
+    return rows
+
+
+def _animate(vis, f, frames, names, placements, scales, world, reveal_frames, segments) -> None:
+    """One keyframe per sample for every visual geometry; visibility tracks of the hidden
+    obstacles and of the growing trace segments."""
+    anim = Animation(default_framerate=f)
+    for k, frame in enumerate(frames):
+        frame_vis = anim.at_frame(vis, int(frame))
+        for name, M, scale in zip(names, placements[k], scales, strict=True):
+            node = frame_vis[name]
+            node.set_transform(M)
+            if not np.allclose(scale, 1.0):
+                node.set_property("scale", "vector3", [float(s) for s in scale])
+    last = int(frames[-1])
+    for item in world if world is not None else ():
+        if item.hidden:
+            for frame, visible in _visibility_keys(world, item.name, reveal_frames, last):
+                anim.at_frame(vis, frame)[obstacle_node(item)].set_property(
+                    "visible", "boolean", bool(visible)
+                )
+    for seg, on in segments:
+        keys = [(0, False), (on, True), (last, True)] if on > 0 else [(0, True), (last, True)]
+        for frame, visible in dict(keys).items():
+            anim.at_frame(vis, frame)[seg].set_property("visible", "boolean", visible)
+    vis.set_animation(anim, play=True, repetitions=1)
+
+
 def write_replay(
     arm: Arm,
     world: World | None,
@@ -356,6 +451,8 @@ def write_replay(
     reveal_times: dict[str, float] | None = None,
     fps: float = 30.0,
     paths: dict[str, np.ndarray] | None = None,
+    grow: Sequence[str] = (),
+    markers: bool = True,
     title: str = "",
 ) -> Path:
     """Write a self-contained meshcat HTML replay of the motion ``Q`` (rad) at ``times`` (s).
@@ -365,10 +462,21 @@ def write_replay(
     start if ``world`` already reports them known, else never (they remain in the
     scene tree, switchable in the viewer). ``fps`` (frames/s) is the minimum frame
     rate (see the module docstring for the keyframe ↔ sample mapping). ``paths``
-    maps names to (N, 3) point lists (m), drawn as lines and named in the caption. The
-    private meshcat server is stopped before returning, also on errors. Returns ``out_path``.
+    maps names to (N, 3) point lists (m), drawn as lines and named in the page's legend;
+    the paths named in ``grow`` have one point per sample and grow with the motion (about
+    :data:`GROW_SEGMENTS` segments, each shown from the frame of its last point); the others
+    are drawn whole from the start (plans known at t = 0). ``markers``: spheres at the end
+    effector's start and goal. The page shows a clock (elapsed time, s). The private meshcat
+    server is stopped before returning, also on errors. Returns ``out_path``.
     """
     t, q, reveal, f, lines = _check_inputs(arm, world, times, Q, reveal_times, fps, paths)
+    grow = set(grow)
+    for name in grow:
+        if name not in lines:
+            raise ValueError(f"grow names {name!r}, which is not one of the paths")
+        if len(lines[name]) != len(t):
+            raise ValueError(f"growing path {name!r} needs one point per sample ({len(t)}), "
+                             f"got {len(lines[name])}")
     out_path = Path(out_path)
     frames, f = keyframe_indices(t, f)
     reveal_frames = {name: _reveal_frame(tr, float(t[0]), f) for name, tr in reveal.items()}
@@ -402,35 +510,18 @@ def write_replay(
         scales = [np.asarray(g.meshScale, dtype=float).ravel() for g in vmodel.geometryObjects]
 
         boxes = _draw_world(vis, world, reveal_frames) if world is not None else []
-        for i, (name, pts) in enumerate(lines.items()):
-            color = PATH_COLORS[i % len(PATH_COLORS)]
-            vis[f"{PATHS_NODE}/{_node_name(name)}"].set_object(
-                mg.Line(mg.PointsGeometry(pts.T), mg.LineBasicMaterial(color=color, linewidth=2))
-            )
+        legend, segments = _draw_paths(vis, lines, grow, frames)
+        if markers:
+            legend += _draw_markers(vis, arm, q)
 
         _frame_camera(vis, placements, joints, boxes, lines)
 
         if len(t) > 1:
-            anim = Animation(default_framerate=f)
-            for k, frame in enumerate(frames):
-                frame_vis = anim.at_frame(vis, int(frame))
-                for name, M, scale in zip(names, placements[k], scales, strict=True):
-                    node = frame_vis[name]
-                    node.set_transform(M)
-                    if not np.allclose(scale, 1.0):
-                        node.set_property("scale", "vector3", [float(s) for s in scale])
-            last = int(frames[-1])
-            for item in world if world is not None else ():
-                if item.hidden:
-                    for frame, visible in _visibility_keys(world, item.name, reveal_frames, last):
-                        anim.at_frame(vis, frame)[obstacle_node(item)].set_property(
-                            "visible", "boolean", bool(visible)
-                        )
-            vis.set_animation(anim, play=True, repetitions=1)
+            _animate(vis, f, frames, names, placements, scales, world, reveal_frames, segments)
         page = vis.static_html()
 
-    legend = [(name, PATH_COLORS[i % len(PATH_COLORS)]) for i, name in enumerate(lines)]
-    page = _decorate(_sequence_commands(page), title, legend)
+    clock = (float(t[0]), float(t[-1])) if len(t) > 1 else None
+    page = decorate(sequence_commands(page), title, legend, clock)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     out_path.write_text(page, encoding="utf-8")
     return out_path
@@ -493,70 +584,3 @@ class _PlacedOrthographicCamera(mg.OrthographicCamera):
         T[:3, 3] = self.position
         data["object"]["matrix"] = list(T.T.flatten())  # three.js matrices are column-major
         return data
-
-
-# How meshcat 0.3.2's static_html embeds one scene command (zmqserver.create_command).
-_FETCH_COMMAND = re.compile(
-    r'fetch\("(data:application/octet-binary;base64,[A-Za-z0-9+/=]*)"\)\s*'
-    r"\.then\(res => res\.arrayBuffer\(\)\)\s*"
-    r"\.then\(buffer => viewer\.handle_command_bytearray\(new Uint8Array\(buffer\)\)\);\s*"
-)
-_SEQUENTIAL_LOADER = """
-(async function () {{
-    const commands = [
-{urls}
-    ];
-    for (const url of commands) {{
-        const buffer = await (await fetch(url)).arrayBuffer();
-        viewer.handle_command_bytearray(new Uint8Array(buffer));
-    }}
-}})();
-"""
-
-
-def _sequence_commands(page: str) -> str:
-    """Run the page's scene commands one after the other, the animation last.
-
-    meshcat's static page starts one independent ``fetch`` per command, and they
-    complete in no guaranteed order: with large meshes (the Panda's are ~10 MB) a
-    static pose could land after the animation had played and undo its last frame,
-    and the motion would play while the meshes are still loading. Here every
-    command is applied in turn, and the animation starts once the scene is built.
-    If the page does not have the expected form it is returned unchanged (with a warning).
-    """
-    matches = list(_FETCH_COMMAND.finditer(page))
-    if not matches or page.count("viewer.handle_command_bytearray") != len(matches):
-        warnings.warn("replay: unexpected meshcat page layout; scene commands left as they are",
-                      RuntimeWarning, stacklevel=3)
-        return page
-    first, rest = [], []
-    for m in matches:
-        head = base64.b64decode(m.group(1).split(",", 1)[1][:64])  # msgpack: "type" comes first
-        (rest if b"set_animation" in head else first).append(m.group(1))
-    urls = ",\n".join(f'        "{u}"' for u in first + rest)
-    start, end = matches[0].start(), matches[-1].end()
-    if page[start:end].count("fetch(") != len(matches):
-        warnings.warn("replay: unexpected meshcat page layout; scene commands left as they are",
-                      RuntimeWarning, stacklevel=3)
-        return page
-    return page[:start] + _SEQUENTIAL_LOADER.format(urls=urls) + page[end:]
-
-
-def _decorate(page: str, title: str, legend: list[tuple[str, int]] = ()) -> str:
-    """Put ``title`` in the page's <title> and, with the ``legend`` of the end-effector
-    lines (name, colour 0xRRGGBB), in a small caption."""
-    if not title and not legend:
-        return page
-    esc = html.escape(title)
-    if title:
-        page = page.replace("<title>MeshCat</title>", f"<title>{esc}</title>", 1)
-    rows = "".join(
-        f'<br><span style="color:#{color:06x}">&#9472;&#9472;</span> {html.escape(name)}'
-        for name, color in legend
-    )
-    caption = (
-        '<div style="position:absolute;left:10px;top:8px;color:#fff;'
-        f'font:15px sans-serif;text-shadow:0 0 3px #000;pointer-events:none">{esc}'
-        f'<span style="font-size:12px">{rows}</span></div>'
-    )
-    return page.replace("<body>", "<body>" + caption, 1)

@@ -197,6 +197,7 @@ def _roadmap_record(scn: EnergyScenario, roadmap: Roadmap) -> dict[str, Any]:
         "num_nodes": roadmap.num_nodes,
         "num_edges": roadmap.num_edges,
         "edge_counts": dict(roadmap.edge_counts),  # lengthened / refused directed candidates
+        "chunks_reused": int(roadmap.chunks_reused),  # from an interrupted build (§4h)
         "options": asdict(scn.options),
         "key": roadmap.key,
     }
@@ -236,6 +237,7 @@ def result_record(
         "controller": {"kp": scn.kp, "kd": scn.kd, "feedforward": scn.feedforward},
         "current_model": current_model(setup.drive, scn.options.dt),
         "roadmap": _roadmap_record(scn, setup.roadmap),
+        "compute": dict(setup.compute),
         "planner": scn.planner,
         "start": scn.start,
         "goal": scn.goal,

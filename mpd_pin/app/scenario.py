@@ -108,6 +108,8 @@ class EnergyScenario:
     hazard_penalty: float = math.inf
     planner: str = DEFAULT_PLANNER
     source: str = ""
+    #: where edge energies run: None (this process), "local[:N]" or a scheduler address
+    scheduler: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
     def drive(self) -> Drive:
@@ -411,6 +413,19 @@ def _endpoint(t: Table, key: str, arm: Arm, world: World, ik_seed: int) -> np.nd
         raise ConfigError(f"{t.path}.{key}_ee: {exc}") from None
 
 
+def _compute(t: Table) -> str | None:
+    """``[compute] scheduler``: "threads", "local[:N]" or an address (docs/design.md §4h)."""
+    from ..dynamics.remote import ComputeError, parse_scheduler
+
+    text = t.string("scheduler", None)
+    t.done()
+    try:
+        kind, _ = parse_scheduler(text)
+    except ComputeError as exc:
+        raise ConfigError(f"{t.path}.{exc}") from None
+    return None if kind == "threads" else text
+
+
 def parse_energy_scenario(
     data: dict[str, Any], *, source: str = "", base_dir: Path | None = None, seed: int | None = None
 ) -> EnergyScenario:
@@ -459,6 +474,7 @@ def parse_energy_scenario(
     start = _endpoint(task, "start", arm, world, ik_seed)
     goal = _endpoint(task, "goal", arm, world, ik_seed + 1)
     task.done()
+    scheduler = _compute(top.table("compute"))
     top.done()
     return EnergyScenario(
         name=name,
@@ -476,4 +492,5 @@ def parse_energy_scenario(
         hazard_penalty=penalty,
         planner=planner,
         source=source,
+        scheduler=scheduler,
     )

@@ -292,7 +292,7 @@ def open_compute(scheduler: Any = None) -> Compute:
 
     if kind == "local":
         cluster = LocalCluster(n_workers=int(arg), threads_per_worker=1, processes=True,
-                               host="127.0.0.1", dashboard_address=None,
+                               host="127.0.0.1", dashboard_address=":0",
                                silence_logs=logging.ERROR)
         client = Client(cluster)
         compute = Compute(client, f"local:{arg}", int(arg), owned=[cluster, client])
@@ -342,7 +342,9 @@ def run_chunks(
             return executor.submit(outcomes_task, *args, pure=False)
     else:
         as_completed = cf.as_completed
-        submit = executor.submit
+
+        def submit(*args: Any) -> Any:
+            return executor.submit(outcomes_task, *args)
     futures = {}
     try:
         for rows in chunks:

@@ -311,7 +311,7 @@ def test_cli_local_cluster_end_to_end(tmp_path, capsys):
     capsys.readouterr()
     a, b = runs["threads"], runs["local"]
     assert a["compute"] == {"scheduler": "threads", "workers": 1,
-                            "chunk_size": rmt.DEFAULT_CHUNK_SIZE}
+                            "chunk_size": rmt.IN_PROCESS_CHUNK_SIZE}
     assert b["compute"] == {"scheduler": "local:2", "workers": 2,
                             "chunk_size": rmt.DEFAULT_CHUNK_SIZE}
     assert a["roadmap"]["key"] == b["roadmap"]["key"] and b["roadmap"]["chunks_reused"] == 0

@@ -15,7 +15,14 @@ from typing import Any
 import numpy as np
 
 from .motor import Drive
-from .remote import DEFAULT_CHUNK_SIZE, Compute, open_compute, plan_chunks, run_chunks
+from .remote import (
+    DEFAULT_CHUNK_SIZE,
+    IN_PROCESS_CHUNK_SIZE,
+    Compute,
+    open_compute,
+    plan_chunks,
+    run_chunks,
+)
 from .simulate import EdgeOutcomes, _check_batch
 
 __all__ = ["EnergyCost", "Reuse"]
@@ -29,18 +36,22 @@ class EnergyCost:
 
     The one batched interface through which roadmaps get costs:
     ``cost(Q0, Q1, durations, progress) -> (K, nq)``. ``executor`` is where chunks of
-    ``chunk_size`` edges run: None (this process, all cores), a ``distributed.Client``,
-    any ``concurrent.futures.Executor``, a scheduler string (``"local:2"``,
-    ``"tcp://host:8786"``) or a :class:`~mpd_pin.dynamics.remote.Compute`
+    ``chunk_size`` edges (default 1024 in this process, 512 elsewhere) run: None (this
+    process, all cores), a ``distributed.Client``, any ``concurrent.futures.Executor``,
+    a scheduler string (``"local:2"``, ``"tcp://host:8786"``) or a
+    :class:`~mpd_pin.dynamics.remote.Compute`
     (docs/design.md §4h). ``chunk`` bounds the integrator's own batches.
     """
 
     def __init__(self, drive: Drive, dt: float = 5e-3, *, executor: Any = None,
-                 chunk: int = 1024, chunk_size: int = DEFAULT_CHUNK_SIZE):
+                 chunk: int = 1024, chunk_size: int | None = None):
         self.drive = drive
         self.dt = float(dt)
         self.compute: Compute = open_compute(executor)
         self.chunk = int(chunk)
+        if chunk_size is None:
+            local = self.compute.executor is None
+            chunk_size = IN_PROCESS_CHUNK_SIZE if local else DEFAULT_CHUNK_SIZE
         if int(chunk_size) != chunk_size or chunk_size < 1:
             raise ValueError(f"chunk_size must be a positive integer, got {chunk_size!r}")
         self.chunk_size = int(chunk_size)

@@ -34,6 +34,7 @@ from .simulate import EdgeOutcomes, edge_outcomes, step_count
 
 __all__ = [
     "DEFAULT_CHUNK_SIZE",
+    "IN_PROCESS_CHUNK_SIZE",
     "Compute",
     "ComputeError",
     "DriveSpec",
@@ -45,9 +46,12 @@ __all__ = [
     "run_chunks",
 ]
 
-#: Edges per task (bench/cluster.py: 256 edges amortise the ~5 ms per-task overhead of a
-#: LocalCluster to a few percent and still give a finer resume granularity).
-DEFAULT_CHUNK_SIZE = 256
+#: Edges per task sent to workers. Measured (bench/cluster.py, docs/design.md §4h): a batch
+#: of the integrator costs ~28 ms plus ~2 ms per planar 3-link edge (1 thread), so 512
+#: edges keep the fixed part near 5 % and 32-64-edge chunks run at 0.3x the speed.
+DEFAULT_CHUNK_SIZE = 512
+#: Edges per chunk in this process (the integrator's own batch: no extra batches).
+IN_PROCESS_CHUNK_SIZE = 1024
 #: Seconds to wait for a scheduler to answer, and for its first worker.
 CONNECT_TIMEOUT = 10.0
 

@@ -319,6 +319,27 @@ def test_cli_local_cluster_end_to_end(tmp_path, capsys):
     assert a["energy_per_joint"] == b["energy_per_joint"]
 
 
+def test_cli_says_how_many_chunks_it_reused(tmp_path, capsys, monkeypatch):
+    """A build killed after some chunks (here: an exception from the progress bar) is
+    resumed by the same command; the summary line and result.json say how many chunks."""
+    scn = tmp_path / "tiny.toml"
+    scn.write_text(SCENARIO.replace("num_nodes = 40", "num_nodes = 60"))
+    cache, out = tmp_path / "rm.npz", tmp_path / "out"
+    monkeypatch.setattr("mpd_pin.dynamics.cost.IN_PROCESS_CHUNK_SIZE", 64)
+    monkeypatch.setattr(rmod, "_tqdm", lambda show: _interrupting_bar(2 * 64))
+    args = ["run", str(scn), "--out", str(out), "--no-replay", "--cache", str(cache)]
+    assert main(args) == 130
+    assert "interrupted" in capsys.readouterr().err
+    saved = len(list(rs.partial_dir(cache).glob("chunk-*.npz")))
+    assert saved >= 2 and not cache.exists()
+    monkeypatch.setattr(rmod, "_tqdm", lambda show: _CountingBar)
+    assert main([*args, "--quiet"]) == 0
+    line = capsys.readouterr().out
+    assert f"resumed: {saved} chunks of edge energies reused" in line, line
+    assert json.loads((out / "result.json").read_text())["roadmap"]["chunks_reused"] == saved
+    assert not rs.partial_dir(cache).exists()
+
+
 def test_open_compute_forms():
     assert rmt.parse_scheduler(None) == ("threads", None)
     assert rmt.parse_scheduler("local:3") == ("local", 3)

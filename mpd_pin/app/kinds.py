@@ -73,9 +73,11 @@ def _run_energy(scn, out_dir: Path, *, show_progress: bool, cache: Path | None, 
 
 def _summary_energy(scn, result: dict[str, Any], out_dir: Path) -> str:
     per_joint = ", ".join(f"{e:.4g}" for e in result["energy_per_joint"])
+    reused = result["roadmap"].get("chunks_reused", 0)
+    resumed = f", resumed: {reused} chunks of edge energies reused" if reused else ""
     return (f"{scn.name}: {result['total_energy']:.6g} J ({per_joint}) over "
             f"{result['path']['length_nodes']} nodes; roadmap {result['roadmap']['num_nodes']} "
-            f"nodes -> {out_dir}/result.json")
+            f"nodes{resumed} -> {out_dir}/result.json")
 
 
 def _parse_dynamic(data: dict[str, Any], path: Path, *, seed: int | None, planner: str | None):

@@ -4,11 +4,12 @@ Costs the directed edges of a roadmap (planar 3-link by default, or ``--arm pand
 once in this process (all cores, pinocchio threads) and on a ``LocalCluster`` of
 ``--workers`` processes × 1 thread, for a sweep of chunk sizes; prints edges/s, the
 ratio to in-process, checks that every energy is bit-identical, and estimates the
-per-chunk overhead from a least-squares fit ``t(c) = a + b·⌈E/c⌉`` over the sweep
-(``b·workers`` = seconds of overhead per chunk and worker).
+per-chunk overhead (the integrator's fixed cost per batch, and Dask's round trip of a
+1-edge chunk); then times single small
+batches (``--small``: the size of a lazy evaluation round) both ways.
 
 Usage: python bench/cluster.py [--arm planar_3link|panda] [--edges 4000] [--workers 2]
-       [--chunks 32,64,128,256,512,1024] [--repeats 2]
+       [--chunks 32,64,128,256,512,1024] [--repeats 2] [--small 8,32,128]
 """
 
 from __future__ import annotations
@@ -35,6 +36,42 @@ def edges(arm, count: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return Q0, Q1
 
 
+def overhead(drive, dt, Q0, Q1, durations, client, repeats: int) -> None:
+    """Per-chunk overhead: the integrator's fixed cost per batch (1 thread: 1 edge vs 256
+    edges) and Dask's round trip (a 1-edge chunk on a worker vs in this process)."""
+    from mpd_pin.dynamics import edge_outcomes
+
+    def local(k: int):
+        return best_of(lambda: edge_outcomes(drive, Q0[:k], Q1[:k], durations[:k], dt,
+                                             threads=1), repeats)[0]
+
+    t1, t256 = local(1), local(256)
+    per_edge = (t256 - t1) / 255
+    cost = EnergyCost(drive, dt, executor=client, chunk_size=1)
+    t1_cl = best_of(lambda: cost(Q0[:1], Q1[:1], durations[:1]), repeats)[0]
+    print(f"per chunk: integrator batch {1e3 * (t1 - per_edge):.1f} ms fixed + "
+          f"{1e3 * per_edge:.2f} ms per edge (1 thread); Dask round trip "
+          f"{1e3 * (t1_cl - t1):.1f} ms (1-edge chunk {1e3 * t1_cl:.1f} ms on a worker, "
+          f"{1e3 * t1:.1f} ms here)")
+
+
+def small_batches(drive, dt, Q0, Q1, durations, client, args) -> None:
+    """Lazy evaluation's per-round batches (tens of edges): one batch in this process vs
+    split over the workers (``chunk_size`` = ⌈B / workers⌉)."""
+    for B in [int(b) for b in args.small.split(",")]:
+        rows = slice(0, B)
+        t_in, ref = best_of(lambda rows=rows: EnergyCost(drive, dt)(Q0[rows], Q1[rows],
+                                                                     durations[rows]),
+                            args.repeats + 1)
+        cost = EnergyCost(drive, dt, executor=client, chunk_size=-(-B // args.workers))
+        t_cl, got = best_of(lambda rows=rows, cost=cost: cost(Q0[rows], Q1[rows],
+                                                               durations[rows]),
+                            args.repeats + 1)
+        print(f"batch of {B:4d} edges: in-process {t_in * 1e3:7.1f} ms, LocalCluster "
+              f"{t_cl * 1e3:7.1f} ms ({t_in / t_cl:.2f}x), bit-identical: "
+              f"{np.array_equal(ref, got)}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--arm", default="planar_3link", choices=["planar_3link", "panda"])
@@ -42,6 +79,8 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--chunks", default="32,64,128,256,512,1024")
     ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--small", default="8,32,128",
+                    help="batch sizes of lazy rounds to time (one batch each)")
     args = ap.parse_args()
     from distributed import Client, LocalCluster
 
@@ -58,9 +97,8 @@ def main() -> None:
     sizes = [int(c) for c in args.chunks.split(",")]
     print(f"{args.arm}: {E} edges of {T} s at dt {dt} s, {args.repeats} repeats (best)")
 
-    t_in, ref = best_of(lambda: EnergyCost(drive, dt, chunk_size=max(sizes))(Q0, Q1, durations),
-                        args.repeats)
-    print(f"in-process (threads, chunk {max(sizes)}): {E / t_in:8.0f} edges/s  ({t_in:.2f} s)")
+    t_in, ref = best_of(lambda: EnergyCost(drive, dt)(Q0, Q1, durations), args.repeats)
+    print(f"in-process (threads, chunk 1024): {E / t_in:8.0f} edges/s  ({t_in:.2f} s)")
     t_small, _ = best_of(lambda: EnergyCost(drive, dt, chunk_size=256)(Q0, Q1, durations),
                          args.repeats)
     print(f"in-process (threads, chunk 256):  {E / t_small:8.0f} edges/s  ({t_small:.2f} s)")
@@ -82,12 +120,8 @@ def main() -> None:
                   f"{math.ceil(E / c)} chunks, bit-identical: {same})")
             if not same:
                 raise SystemExit("cluster energies differ from in-process")
-        n = np.array([math.ceil(E / c) for c in sizes], dtype=float)
-        A = np.stack([np.ones_like(n), n], axis=1)
-        (a, b), *_ = np.linalg.lstsq(A, np.array(times), rcond=None)
-        print(f"fit t = {a:.3f} s + {b * 1e3:.2f} ms x chunks: per-chunk overhead "
-              f"≈ {b * args.workers * 1e3:.1f} ms per worker, "
-              f"compute ≈ {a * args.workers / E * 1e3:.3f} ms per edge and worker")
+        overhead(drive, dt, Q0, Q1, durations, client, args.repeats + 2)
+        small_batches(drive, dt, Q0, Q1, durations, client, args)
     finally:
         client.close()
         cluster.close()

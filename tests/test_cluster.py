@@ -294,6 +294,8 @@ def test_unreachable_scheduler_exits_2_with_one_line(tmp_path, capsys, monkeypat
     assert not out.exists()  # before any work
     assert main(["run", str(scn), "--out", str(out), "--scheduler", "local:x"]) == 2
     assert "--scheduler 'local:x'" in capsys.readouterr().err
+    assert main(["run", "env1", "--out", str(out), "--scheduler", "local:2"]) == 2
+    assert "--scheduler applies to energy scenarios" in capsys.readouterr().err
     scn.write_text(SCENARIO + '[compute]\nscheduler = "nowhere"\n')
     assert main(["run", str(scn), "--out", str(out), "--quiet"]) == 2
     assert "compute.scheduler 'nowhere'" in capsys.readouterr().err

@@ -81,8 +81,11 @@ def run_energy_scenario(
 ) -> dict[str, Any]:
     """Plan ``scn`` and write result.json, trajectory.csv/json (``trajectory_rate`` Hz), the
     plots and (with ``replay``) replay.html into ``out_dir``; ``cache`` is a roadmap
-    ``.npz`` to reuse or create. Returns the result as written to result.json (plain JSON
-    data, ``None`` for each non-finite number)."""
+    ``.npz`` to reuse or create (an interrupted build resumes). Edge energies run where
+    ``scn.scheduler`` says (:func:`~mpd_pin.dynamics.remote.open_compute`; connected first,
+    so an unreachable cluster fails before any work; docs/design.md §4h). Returns the
+    result as written to result.json (plain JSON data, ``None`` for each non-finite
+    number)."""
     out_dir = Path(out_dir)
     if not (trajectory_rate > 0 and trajectory_rate < float("inf")):
         raise ConfigError(f"trajectory rate must be a number > 0 (Hz), got {trajectory_rate!r}")

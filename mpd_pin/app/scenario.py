@@ -108,8 +108,9 @@ class EnergyScenario:
     hazard_penalty: float = math.inf
     planner: str = DEFAULT_PLANNER
     source: str = ""
-    #: where edge energies run: None (this process), "local[:N]" or a scheduler address
-    scheduler: str | None = None
+    #: where edge energies run: None (this process), "local[:N]", a scheduler address, or
+    #: (from Python) a distributed.Client / concurrent.futures.Executor (docs/design.md §4h)
+    scheduler: Any = None
     extra: dict[str, Any] = field(default_factory=dict)
 
     def drive(self) -> Drive:

@@ -581,7 +581,9 @@ def build_roadmap(
     if cache is not None:
         cache = npz_path(cache)
         if cache.exists():
-            return Roadmap.load(cache, expected_key=key, nq=arm.nq)
+            loaded = Roadmap.load(cache, expected_key=key, nq=arm.nq)
+            shutil.rmtree(partial_dir(cache), ignore_errors=True)  # a leftover of this build
+            return loaded
 
     timings: dict[str, float] = {}
     t0 = time.perf_counter()

@@ -256,6 +256,7 @@ def _roadmap_record(
         "num_nodes": roadmap.num_nodes,  # options.num_nodes samples + start + goal
         "num_edges": roadmap.num_edges,
         "edge_counts": dict(roadmap.edge_counts),  # lengthened / refused directed candidates
+        "chunks_reused": int(roadmap.chunks_reused),  # from an interrupted build (§4h)
         "options": asdict(scn.options),
         "key": roadmap.key,
         "cache": cache if cache is not None else cache_record(None, False),
@@ -299,6 +300,7 @@ def result_record(
         "controller": {"kp": scn.kp, "kd": scn.kd, "feedforward": scn.feedforward},
         "current_model": current_model(setup.drive, scn.options.dt),
         "roadmap": _roadmap_record(scn, setup.roadmap, cache),
+        "compute": dict(setup.compute),
         "planner": scn.planner,
         "start": scn.start,
         "goal": scn.goal,

@@ -62,6 +62,8 @@ class Setup:
     checker: CollisionChecker
     roadmap: Roadmap
     world_record: dict[str, Any]
+    #: result.json's ``compute``: scheduler, workers, chunk_size (docs/design.md §4h)
+    compute: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass
@@ -85,19 +87,22 @@ class PlanResult:
 
 
 def prepare(
-    scn: EnergyScenario, *, cache: Path | None = None, show_progress: bool = True
+    scn: EnergyScenario, *, cache: Path | None = None, show_progress: bool = True,
+    compute: Any = None,
 ) -> Setup:
     """Build the drive, the planning checker (known obstacles) and the roadmap of ``scn``
-    (loaded from ``cache``, a ``.npz``, when it was built with the same key)."""
+    (loaded from ``cache``, a ``.npz``, when it was built with the same key); edge energies
+    run on ``compute`` (an :func:`~mpd_pin.dynamics.remote.open_compute` argument, None:
+    this process; docs/design.md §4h)."""
     drive = scn.drive()
     world = scn.world
     world.reset()
     checker = CollisionChecker(scn.arm, world)
-    cost = EnergyCost(drive, scn.options.dt)
+    cost = EnergyCost(drive, scn.options.dt, executor=compute)
     roadmap = build_roadmap(
         cost, checker, scn.start, scn.goal, scn.options, cache=cache, show_progress=show_progress
     )
-    return Setup(drive, world, checker, roadmap, world.to_dict())
+    return Setup(drive, world, checker, roadmap, world.to_dict(), cost.compute_record())
 
 
 def edge_lengths(roadmap: Roadmap, arm: Arm | None = None) -> np.ndarray:

@@ -28,6 +28,7 @@ import hashlib
 import json
 import math
 import os
+import shutil
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -37,6 +38,7 @@ from ..arm.continuous import nearest_neighbours
 from ..dynamics.cost import EnergyCost
 from ..dynamics.simulate import step_count
 from ..search import Graph
+from .resume import PartialCosts, atomic_savez, partial_dir
 
 __all__ = ["RoadmapOptions", "Roadmap", "build_roadmap", "ROADMAP_FORMAT"]
 
@@ -173,6 +175,8 @@ class Roadmap:
     #: directed candidate edges lengthened for the velocity limits, refused for the
     #: effort limits, refused for not arriving (see RoadmapOptions)
     edge_counts: dict = field(default_factory=dict)
+    #: chunks of edge energies taken from an interrupted build's partial file (§4h)
+    chunks_reused: int = 0
 
     @property
     def num_nodes(self) -> int:
@@ -252,10 +256,12 @@ class Roadmap:
         return h.hexdigest()
 
     def save(self, path: str | os.PathLike) -> Path:
-        """Write a ``.npz`` (no pickle) holding the arrays, the key and a checksum."""
+        """Write a ``.npz`` (no pickle) holding the arrays, the key and a checksum,
+        atomically: a temporary file in the same folder, then ``os.replace``
+        (docs/design.md §4h)."""
         path = npz_path(path)
         arrays = self._arrays()
-        np.savez_compressed(
+        atomic_savez(
             path,
             key=np.array(self.key),
             checksum=np.array(self._checksum(self.key, arrays)),
@@ -496,19 +502,32 @@ def _free_pairs(checker, nodes: np.ndarray, pairs: np.ndarray, resolution: float
     return pairs[np.asarray(free, dtype=bool)]
 
 
-def _cost_edges(cost: EnergyCost, nodes, pairs, options: RoadmapOptions, tqdm, show_progress):
+def _cost_edges(
+    cost: EnergyCost, nodes, pairs, options: RoadmapOptions, tqdm, show_progress, *,
+    resume: tuple[str | os.PathLike, str] | None = None,
+):
     """Costing: both directions of every pair, timed within the velocity limits, simulated,
     and kept only if feasible (docs/design.md §4e). Returns src, dst, durations (s),
-    E⁺ per joint (J) of the kept edges and the counts of :data:`EDGE_COUNTS`."""
+    E⁺ per joint (J) of the kept edges and the counts of :data:`EDGE_COUNTS`; with
+    ``resume`` = (cache file, key), finished chunks are saved beside the cache and those of
+    an interrupted build reused (docs/design.md §4h; the count in ``counts["chunks_reused"]``
+    when resuming)."""
     model = cost.drive.arm.model
     src = np.concatenate([pairs[:, 0], pairs[:, 1]]).astype(np.int64)
     dst = np.concatenate([pairs[:, 1], pairs[:, 0]]).astype(np.int64)
     Q1 = cost.drive.arm.edge_target(nodes[src], nodes[dst])  # shorter way round (§1d)
     durations, raised = options.timing(nodes[src], Q1, model.velocityLimit)
+    partial = None if resume is None else PartialCosts(
+        resume[0], resume[1], nodes[src], Q1, durations
+    )
+    reuse = None if partial is None else partial.load()
     with tqdm(
         total=src.size, desc="edge energies", unit="edge", disable=not show_progress, leave=False
     ) as bar:
-        out = cost.outcomes(nodes[src], Q1, durations, progress=lambda d: bar.update(d - bar.n))
+        out = cost.outcomes(
+            nodes[src], Q1, durations, progress=lambda d: bar.update(d - bar.n),
+            reuse=reuse, on_chunk=None if partial is None else partial.add,
+        )
     over = np.zeros(src.size, dtype=bool)
     if options.effort_limits and src.size:
         lim = np.asarray(model.effortLimit, dtype=float)
@@ -523,6 +542,8 @@ def _cost_edges(cost: EnergyCost, nodes, pairs, options: RoadmapOptions, tqdm, s
         "refused_effort": int(over.sum()),
         "refused_arrival": int((missed & ~over).sum()),
     }
+    if partial is not None:
+        counts["chunks_reused"] = partial.chunks_reused
     return src[keep], dst[keep], durations[keep], np.asarray(out.energy, float)[keep], counts
 
 
@@ -545,7 +566,10 @@ def build_roadmap(
     overrides ``checker.fingerprint()`` in the key (it must change whenever the
     free configurations or edges do). With ``cache`` (a ``.npz`` path), a file
     built with the same key is loaded instead of rebuilding; a file with another
-    key or a bad checksum raises ValueError (delete it to rebuild).
+    key or a bad checksum raises ValueError (delete it to rebuild). While the edge
+    energies of a cached build run, finished chunks are kept in ``<cache>.partial/``; an
+    interrupted build run again reuses them (:attr:`Roadmap.chunks_reused`), and the
+    folder is removed once the file is written (docs/design.md §4h).
     """
     import time
 
@@ -559,7 +583,9 @@ def build_roadmap(
     if cache is not None:
         cache = npz_path(cache)
         if cache.exists():
-            return Roadmap.load(cache, expected_key=key, nq=arm.nq)
+            loaded = Roadmap.load(cache, expected_key=key, nq=arm.nq)
+            shutil.rmtree(partial_dir(cache), ignore_errors=True)  # a leftover of this build
+            return loaded
 
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
@@ -573,9 +599,11 @@ def build_roadmap(
     timings["edge_checks"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     src, dst, durations, energy, counts = _cost_edges(
-        cost, nodes, pairs, options, tqdm, show_progress
+        cost, nodes, pairs, options, tqdm, show_progress,
+        resume=None if cache is None else (cache, key),
     )
     timings["edge_energies"] = time.perf_counter() - t0
+    reused = int(counts.pop("chunks_reused", 0))
 
     roadmap = Roadmap(
         nodes=nodes,
@@ -588,7 +616,9 @@ def build_roadmap(
         key=key,
         timings=timings,
         edge_counts=counts,
+        chunks_reused=reused,
     )
     if cache is not None:
         roadmap.save(cache)
+        shutil.rmtree(partial_dir(cache), ignore_errors=True)
     return roadmap

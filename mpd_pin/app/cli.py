@@ -5,6 +5,7 @@
     mpd-pin run NAME|FILE --out DIR         plan a scenario, write result.json, plots, replay.html
         [--seed N] [--planner NAME]         (planners: mpd_pin.search.PLANNERS, listed by --help)
         [--evaluation lazy|eager]           (override [roadmap] evaluation)
+        [--cache FILE] [--scheduler ADDRESS|local[:N]]   roadmap file; Dask cluster (§4h)
 
 Scenario kinds are dispatched by :mod:`mpd_pin.app.kinds`; this module knows none of them.
 
@@ -78,6 +79,18 @@ def cmd_run(args: argparse.Namespace) -> int:
         from dataclasses import replace
 
         scn = replace(scn, evaluation=args.evaluation)
+    if args.scheduler is not None:
+        from dataclasses import replace
+
+        from ..dynamics.remote import ComputeError, parse_scheduler
+
+        if getattr(scn, "kind", None) != "energy":
+            raise ConfigError("--scheduler applies to energy scenarios (roadmap edge energies)")
+        try:
+            kind, _ = parse_scheduler(args.scheduler)
+        except ComputeError as exc:
+            raise ConfigError(f"--{exc}") from None
+        scn = replace(scn, scheduler=None if kind == "threads" else args.scheduler)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} exists and is not a directory")
@@ -118,10 +131,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=None, help="override the scenario's random seed")
     p.add_argument("--planner", choices=list(PLANNERS), default=None,
                    help="override [planner] algorithm of an energy scenario")
-    p.add_argument("--cache", default=None, help="roadmap .npz to reuse (or create)")
+    p.add_argument("--cache", default=None,
+                   help="roadmap .npz to reuse (or create; an interrupted build resumes)")
     p.add_argument("--evaluation", choices=("lazy", "eager"), default=None,
                    help="override [roadmap] evaluation: simulate edges as the search needs "
                         "them (lazy) or all before it (eager)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS|local[:N]",
+                   help="where edge energies run: a Dask scheduler address (tcp://host:8786), "
+                        "local[:N] (a LocalCluster of N processes) or threads (this process; "
+                        "the default); overrides [compute] scheduler")
     p.add_argument("--no-replay", action="store_true", help="skip the meshcat replay.html")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_run)

@@ -79,6 +79,9 @@ def _summary_energy(scn, result: dict[str, Any], out_dir: Path) -> str:
         roadmap = f" ({how} {cache['path']})"
     else:
         roadmap = ""
+    reused = result["roadmap"].get("chunks_reused", 0)
+    if reused:  # an interrupted build resumed (§4h)
+        roadmap += f", resumed: {reused} chunks of edge energies reused"
     warnings = "".join(f"; warning: {w}" for w in result.get("warnings", []))
     return (f"{scn.name}: {result['total_energy']:.6g} J ({per_joint}) over "
             f"{result['path']['length_nodes']} nodes; roadmap {result['roadmap']['num_nodes']} "

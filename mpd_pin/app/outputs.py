@@ -277,6 +277,7 @@ def _roadmap_record(
         "lazy": lazy_rec,
         "evaluation_notes": list(setup.notes),
         "edge_counts": counts,
+        "chunks_reused": int(roadmap.chunks_reused),  # from an interrupted build (§4h)
         "options": asdict(scn.options),
         "key": roadmap.key,
         "cache": cache if cache is not None else cache_record(None, False),
@@ -320,6 +321,7 @@ def result_record(
         "controller": {"kp": scn.kp, "kd": scn.kd, "feedforward": scn.feedforward},
         "current_model": current_model(setup.drive, scn.options.dt),
         "roadmap": _roadmap_record(scn, setup, cache),
+        "compute": dict(setup.compute),
         "planner": scn.planner,
         "start": scn.start,
         "goal": scn.goal,

@@ -73,6 +73,8 @@ class Setup:
     checker: CollisionChecker
     roadmap: Roadmap
     world_record: dict[str, Any]
+    #: result.json's ``compute``: scheduler, workers, chunk_size (docs/design.md §4h)
+    compute: dict[str, Any] = field(default_factory=dict)
     evaluation: str = "eager"
     lazy: LazyEdges | None = None
     cache: Path | None = None
@@ -100,16 +102,19 @@ class PlanResult:
 
 
 def prepare(
-    scn: EnergyScenario, *, cache: Path | None = None, show_progress: bool = True
+    scn: EnergyScenario, *, cache: Path | None = None, show_progress: bool = True,
+    compute: Any = None,
 ) -> Setup:
     """Build the drive, the planning checker (known obstacles) and the roadmap of ``scn``
-    (loaded from ``cache``, a ``.npz``, when it was built with the same key). A lazy
-    scenario's roadmap is built without costs (docs/design.md §4g)."""
+    (loaded from ``cache``, a ``.npz``, when it was built with the same key); edge energies
+    run on ``compute`` (an :func:`~mpd_pin.dynamics.remote.open_compute` argument, None:
+    this process; docs/design.md §4h). A lazy scenario's roadmap is built without costs
+    (docs/design.md §4g)."""
     drive = scn.drive()
     world = scn.world
     world.reset()
     checker = CollisionChecker(scn.arm, world)
-    cost = EnergyCost(drive, scn.options.dt)
+    cost = EnergyCost(drive, scn.options.dt, executor=compute)
     evaluation = getattr(scn, "evaluation", "eager")
     notes = []
     if evaluation == "lazy" and math.isfinite(scn.hazard_penalty) and any(
@@ -123,8 +128,9 @@ def prepare(
         evaluate=evaluation == "eager",
     )
     lazy = LazyEdges(roadmap, cost, scn.options) if evaluation == "lazy" else None
-    return Setup(drive, world, checker, roadmap, world.to_dict(), evaluation, lazy,
-                 None if cache is None else Path(cache), notes)
+    return Setup(drive, world, checker, roadmap, world.to_dict(), cost.compute_record(),
+                 evaluation=evaluation, lazy=lazy, cache=None if cache is None else Path(cache),
+                 notes=notes)
 
 
 def edge_lengths(roadmap: Roadmap, arm: Arm | None = None) -> np.ndarray:

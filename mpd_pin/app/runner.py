@@ -26,6 +26,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from ..dynamics.remote import Compute, open_compute
 from .config import ConfigError
 from .outputs import (
     cache_record,
@@ -89,17 +90,28 @@ def run_energy_scenario(
 ) -> dict[str, Any]:
     """Plan ``scn`` and write result.json, trajectory.csv/json (``trajectory_rate`` Hz), the
     plots and (with ``replay``) replay.html into ``out_dir``; ``cache`` is a roadmap
-    ``.npz`` to reuse or create. Returns the result as written to result.json (plain JSON
-    data, ``None`` for each non-finite number)."""
+    ``.npz`` to reuse or create (an interrupted build resumes). Edge energies run where
+    ``scn.scheduler`` says (:func:`~mpd_pin.dynamics.remote.open_compute`; connected first,
+    so an unreachable cluster fails before any work; docs/design.md §4h). Returns the
+    result as written to result.json (plain JSON data, ``None`` for each non-finite
+    number)."""
     out_dir = Path(out_dir)
     if not (trajectory_rate > 0 and trajectory_rate < float("inf")):
         raise ConfigError(f"trajectory rate must be a number > 0 (Hz), got {trajectory_rate!r}")
+    # The cluster first (docs/design.md §4h): one that cannot be reached fails before any work.
+    with open_compute(scn.scheduler) as compute:
+        return _run(scn, out_dir, show_progress, cache, replay, trajectory_rate, compute)
+
+
+def _run(scn: EnergyScenario, out_dir: Path, show_progress: bool, cache: Path | None,
+         replay: bool, trajectory_rate: float, compute: Compute) -> dict[str, Any]:
+    """:func:`run_energy_scenario` once the compute is open."""
     check_output_dir(out_dir)
     clock = PhaseClock()
     dt = scn.options.dt
     with clock.phase("roadmap"):
         cache_used = _cache_exists(cache)  # loaded (reused) if it exists, else built and saved
-        setup = prepare(scn, cache=cache, show_progress=show_progress)
+        setup = prepare(scn, cache=cache, show_progress=show_progress, compute=compute)
     with clock.phase("search"):
         plan = plan_path(scn, setup)
     with clock.phase("verification"):

@@ -126,6 +126,9 @@ class EnergyScenario:
     hazard_penalty: float = math.inf
     planner: str = DEFAULT_PLANNER
     source: str = ""
+    #: where edge energies run: None (this process), "local[:N]", a scheduler address, or
+    #: (from Python) a distributed.Client / concurrent.futures.Executor (docs/design.md §4h)
+    scheduler: Any = None
     extra: dict[str, Any] = field(default_factory=dict)
     #: "lazy" (simulate only the edges the search needs) or "eager" (docs/design.md §4g)
     evaluation: str = "lazy"
@@ -477,6 +480,19 @@ def _endpoint(t: Table, key: str, arm: Arm, world: World, ik_seed: int) -> np.nd
         raise ConfigError(f"{t.path}.{key}_ee: {exc}") from None
 
 
+def _compute(t: Table) -> str | None:
+    """``[compute] scheduler``: "threads", "local[:N]" or an address (docs/design.md §4h)."""
+    from ..dynamics.remote import ComputeError, parse_scheduler
+
+    text = t.string("scheduler", None)
+    t.done()
+    try:
+        kind, _ = parse_scheduler(text)
+    except ComputeError as exc:
+        raise ConfigError(f"{t.path}.{exc}") from None
+    return None if kind == "threads" else text
+
+
 def parse_energy_scenario(
     data: dict[str, Any], *, source: str = "", base_dir: Path | None = None, seed: int | None = None
 ) -> EnergyScenario:
@@ -536,6 +552,7 @@ def parse_energy_scenario(
         raise ConfigError(f"{task.path}.elbow: chooses the IK solution of start_ee/goal_ee; "
                           "start and goal are given as joint angles")
     task.done()
+    scheduler = _compute(top.table("compute"))
     top.done()
     holding = Drive(arm, motor, kp, kd, feedforward=ff)  # a motor too weak to hold (§3g)
     for what, q in (("task.start", start), ("task.goal", goal)):
@@ -560,4 +577,5 @@ def parse_energy_scenario(
         planner=planner,
         source=source,
         evaluation=evaluation,
+        scheduler=scheduler,
     )

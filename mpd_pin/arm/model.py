@@ -535,6 +535,7 @@ class Arm:
             visual_model=visual,
             name=name,
             srdf_path=base.srdf_path,
+            urdf_xml=base.urdf_xml,  # the full URDF; with locked_joints it rebuilds model
             q_reference=q_ref,
             continuous_joints=tuple(n for n in base.continuous_joints if model.existJointName(n)),
             locked_joints=locked,

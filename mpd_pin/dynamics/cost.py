@@ -2,34 +2,64 @@
 
 Roadmaps get their costs only through :class:`EnergyCost`, so a lazy evaluator or a
 remote executor can replace the way edges are simulated without touching the search.
+Every batch goes through the executor seam of :mod:`mpd_pin.dynamics.remote`
+(docs/design.md §4h): chunks of edges, in this process or on workers, identical rows.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import fields
+from typing import Any
 
 import numpy as np
 
 from .motor import Drive
-from .simulate import EdgeOutcomes, edge_outcomes
+from .remote import (
+    DEFAULT_CHUNK_SIZE,
+    IN_PROCESS_CHUNK_SIZE,
+    Compute,
+    open_compute,
+    plan_chunks,
+    run_chunks,
+)
+from .simulate import EdgeOutcomes, _check_batch
 
-__all__ = ["EnergyCost"]
+__all__ = ["EnergyCost", "Reuse"]
+
+#: ``(mask, outcomes)``: rows already known (from a partial file) and their outcomes.
+Reuse = tuple[np.ndarray, EdgeOutcomes]
 
 
 class EnergyCost:
     """Directed edge cost = E⁺ per joint (J) of the drive tracking the quintic reference.
 
     The one batched interface through which roadmaps get costs:
-    ``cost(Q0, Q1, durations, progress) -> (K, nq)``. ``executor`` (any
-    ``concurrent.futures.Executor``) splits large batches across workers.
+    ``cost(Q0, Q1, durations, progress) -> (K, nq)``. ``executor`` is where chunks of
+    ``chunk_size`` edges (default 1024 in this process, 512 elsewhere) run: None (this
+    process, all cores), a ``distributed.Client``, any ``concurrent.futures.Executor``,
+    a scheduler string (``"local:2"``, ``"tcp://host:8786"``) or a
+    :class:`~mpd_pin.dynamics.remote.Compute`
+    (docs/design.md §4h). ``chunk`` bounds the integrator's own batches.
     """
 
-    def __init__(self, drive: Drive, dt: float = 5e-3, *, executor=None, chunk: int = 1024):
+    def __init__(self, drive: Drive, dt: float = 5e-3, *, executor: Any = None,
+                 chunk: int = 1024, chunk_size: int | None = None):
         self.drive = drive
         self.dt = float(dt)
-        self.executor = executor
+        self.compute: Compute = open_compute(executor)
         self.chunk = int(chunk)
+        if chunk_size is None:
+            local = self.compute.executor is None
+            chunk_size = IN_PROCESS_CHUNK_SIZE if local else DEFAULT_CHUNK_SIZE
+        if int(chunk_size) != chunk_size or chunk_size < 1:
+            raise ValueError(f"chunk_size must be a positive integer, got {chunk_size!r}")
+        self.chunk_size = int(chunk_size)
+
+    @property
+    def executor(self) -> Any:
+        """The executor chunks are sent to (None: this process)."""
+        return self.compute.executor
 
     def describe(self) -> dict:
         """Plain data that determines the costs (hashed into roadmap keys)."""
@@ -42,6 +72,10 @@ class EnergyCost:
         if self.drive.arm.continuous_joints:  # edges the shorter way round (§1d)
             out["shorter_way"] = list(self.drive.arm.continuous_joints)
         return out
+
+    def compute_record(self) -> dict[str, Any]:
+        """result.json's ``compute``: scheduler, workers, chunk_size (edges)."""
+        return self.compute.record(self.chunk_size)
 
     def __call__(
         self,
@@ -59,31 +93,41 @@ class EnergyCost:
         Q1: np.ndarray,
         durations: np.ndarray,
         progress: Callable[[int], None] | None = None,
+        *,
+        reuse: Reuse | None = None,
+        on_chunk: Callable[[np.ndarray, EdgeOutcomes], None] | None = None,
     ) -> EdgeOutcomes:
         """Energies, end errors and peak torques of the K edges (:func:`edge_outcomes`);
         on continuous joints each edge ends at ``arm.edge_target(Q0, Q1)``, the shorter
-        way round (docs/design.md §1d)."""
-        Q1 = self.drive.arm.edge_target(Q0, Q1)
-        if self.executor is None or Q0.shape[0] <= self.chunk:
-            return edge_outcomes(
-                self.drive, Q0, Q1, durations, self.dt, chunk=self.chunk, progress=progress
-            )
-        parts = []
-        for start in range(0, Q0.shape[0], self.chunk):
-            sl = slice(start, start + self.chunk)
-            parts.append(
-                self.executor.submit(
-                    edge_outcomes, self.drive, Q0[sl], Q1[sl], durations[sl], self.dt,
-                    chunk=self.chunk,
-                )
-            )
-        out, done = [], 0
-        for fut in parts:
-            res = fut.result()
-            out.append(res)
-            done += res.energy.shape[0]
+        way round (docs/design.md §1d).
+
+        ``reuse`` = (mask, outcomes): rows already known, not simulated again.
+        ``on_chunk(rows, outcomes)`` is called as each chunk finishes (before
+        ``progress(done edges)``), e.g. to save it for a resumed build.
+        """
+        Q0, Q1 = _check_batch(self.drive, Q0, Q1)
+        Q1 = self.drive.arm.edge_target(Q0, Q1)  # the shorter way round (§1d)
+        K, nq = Q0.shape
+        T = np.broadcast_to(np.asarray(durations, dtype=float), (K,)).copy()
+        out = [np.zeros((K, nq)) for _ in fields(EdgeOutcomes)]
+        todo = np.arange(K)
+        if reuse is not None:
+            mask, known = reuse
+            mask = np.asarray(mask, dtype=bool)
+            for arr, f in zip(out, fields(EdgeOutcomes), strict=True):
+                arr[mask] = getattr(known, f.name)[mask]
+            todo = np.flatnonzero(~mask)
+        done = K - todo.size
+        if progress is not None and done:
+            progress(done)
+        chunks = [todo[c] for c in plan_chunks(T[todo], self.dt, self.chunk_size)]
+        for rows, res in run_chunks(self.compute, self.drive, Q0, Q1, T, self.dt, chunks,
+                                    inner_chunk=self.chunk):
+            for arr, f in zip(out, fields(EdgeOutcomes), strict=True):
+                arr[rows] = getattr(res, f.name)
+            if on_chunk is not None:
+                on_chunk(rows, res)
+            done += rows.size
             if progress is not None:
                 progress(done)
-        return EdgeOutcomes(*(
-            np.concatenate([getattr(r, f.name) for r in out], axis=0) for f in fields(EdgeOutcomes)
-        ))
+        return EdgeOutcomes(*out)

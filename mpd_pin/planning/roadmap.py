@@ -28,6 +28,7 @@ import hashlib
 import json
 import math
 import os
+import shutil
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
@@ -37,6 +38,7 @@ from ..arm.continuous import nearest_neighbours
 from ..dynamics.cost import EnergyCost
 from ..dynamics.simulate import step_count
 from ..search import Graph
+from .resume import PartialCosts, atomic_savez, partial_dir
 
 __all__ = ["RoadmapOptions", "Roadmap", "build_roadmap", "ROADMAP_FORMAT"]
 
@@ -173,6 +175,8 @@ class Roadmap:
     #: directed candidate edges lengthened for the velocity limits, refused for the
     #: effort limits, refused for not arriving (see RoadmapOptions)
     edge_counts: dict = field(default_factory=dict)
+    #: chunks of edge energies taken from an interrupted build's partial file (§4h)
+    chunks_reused: int = 0
 
     @property
     def num_nodes(self) -> int:
@@ -211,12 +215,11 @@ class Roadmap:
 
     @property
     def evaluated(self) -> np.ndarray:
-        """(E,) bool: edges whose energy is known (NaN rows are not yet evaluated)."""
+        """(E,) bool: edges whose energy is known (NaN rows: not yet evaluated, §4g)."""
         return ~np.isnan(np.asarray(self.energy, float)).any(axis=1)
 
     def without_edges(self, drop: np.ndarray) -> Roadmap:
-        """A copy without the edges where ``drop`` (E,) is True (refused ones, before a
-        save); the nodes, key, counts and timings are kept."""
+        """A copy without the edges where ``drop`` (E,) is True (nodes, key, counts kept)."""
         keep = ~np.asarray(drop, dtype=bool)
         return replace(
             self, src=self.src[keep], dst=self.dst[keep], durations=self.durations[keep],
@@ -267,10 +270,12 @@ class Roadmap:
         return h.hexdigest()
 
     def save(self, path: str | os.PathLike) -> Path:
-        """Write a ``.npz`` (no pickle) holding the arrays, the key and a checksum."""
+        """Write a ``.npz`` (no pickle) holding the arrays, the key and a checksum,
+        atomically: a temporary file in the same folder, then ``os.replace``
+        (docs/design.md §4h)."""
         path = npz_path(path)
         arrays = self._arrays()
-        np.savez_compressed(
+        atomic_savez(
             path,
             key=np.array(self.key),
             checksum=np.array(self._checksum(self.key, arrays)),
@@ -518,10 +523,8 @@ def _free_pairs(checker, nodes: np.ndarray, pairs: np.ndarray, resolution: float
 
 
 def feasibility(out, options: RoadmapOptions, model) -> tuple[np.ndarray, np.ndarray]:
-    """The feasibility rules of docs/design.md §4e on simulated edges (``out``: the
-    :class:`~mpd_pin.dynamics.simulate.EdgeOutcomes` of K edges): ``(over, missed)``, (K,)
-    bool each — the motor torque exceeded a URDF effort limit (b), the motion ended farther
-    than ``arrival_tolerance`` from its end node (c). The velocity rule (a) is the timing."""
+    """Rules (b), (c) of docs/design.md §4e on ``EdgeOutcomes`` of K edges: ``(over,
+    missed)``, (K,) bool — effort limit exceeded, end farther than ``arrival_tolerance``."""
     K = np.asarray(out.energy).shape[0]
     over = np.zeros(K, dtype=bool)
     if options.effort_limits and K:
@@ -535,8 +538,7 @@ def feasibility(out, options: RoadmapOptions, model) -> tuple[np.ndarray, np.nda
 
 
 def _candidate_edges(nodes, pairs, options: RoadmapOptions, arm):
-    """Both directions of every pair, timed within the velocity limits, not simulated
-    (energy NaN): src, dst, durations (s), energy (E, nq) and the counts."""
+    """Both directions of every pair, timed, not simulated: src, dst, durations, NaN, counts."""
     src = np.concatenate([pairs[:, 0], pairs[:, 1]]).astype(np.int64)
     dst = np.concatenate([pairs[:, 1], pairs[:, 0]]).astype(np.int64)
     Q1 = arm.edge_target(nodes[src], nodes[dst])  # shorter way round (§1d)
@@ -547,19 +549,32 @@ def _candidate_edges(nodes, pairs, options: RoadmapOptions, arm):
     return src, dst, durations, energy, counts
 
 
-def _cost_edges(cost: EnergyCost, nodes, pairs, options: RoadmapOptions, tqdm, show_progress):
+def _cost_edges(
+    cost: EnergyCost, nodes, pairs, options: RoadmapOptions, tqdm, show_progress, *,
+    resume: tuple[str | os.PathLike, str] | None = None,
+):
     """Costing: both directions of every pair, timed within the velocity limits, simulated,
     and kept only if feasible (docs/design.md §4e). Returns src, dst, durations (s),
-    E⁺ per joint (J) of the kept edges and the counts of :data:`EDGE_COUNTS`."""
+    E⁺ per joint (J) of the kept edges and the counts of :data:`EDGE_COUNTS`; with
+    ``resume`` = (cache file, key), finished chunks are saved beside the cache and those of
+    an interrupted build reused (docs/design.md §4h; the count in ``counts["chunks_reused"]``
+    when resuming)."""
     model = cost.drive.arm.model
     src = np.concatenate([pairs[:, 0], pairs[:, 1]]).astype(np.int64)
     dst = np.concatenate([pairs[:, 1], pairs[:, 0]]).astype(np.int64)
     Q1 = cost.drive.arm.edge_target(nodes[src], nodes[dst])  # shorter way round (§1d)
     durations, raised = options.timing(nodes[src], Q1, model.velocityLimit)
+    partial = None if resume is None else PartialCosts(
+        resume[0], resume[1], nodes[src], Q1, durations
+    )
+    reuse = None if partial is None else partial.load()
     with tqdm(
         total=src.size, desc="edge energies", unit="edge", disable=not show_progress, leave=False
     ) as bar:
-        out = cost.outcomes(nodes[src], Q1, durations, progress=lambda d: bar.update(d - bar.n))
+        out = cost.outcomes(
+            nodes[src], Q1, durations, progress=lambda d: bar.update(d - bar.n),
+            reuse=reuse, on_chunk=None if partial is None else partial.add,
+        )
     over, missed = feasibility(out, options, model)
     keep = ~(over | missed)
     counts = {
@@ -567,13 +582,14 @@ def _cost_edges(cost: EnergyCost, nodes, pairs, options: RoadmapOptions, tqdm, s
         "refused_effort": int(over.sum()),
         "refused_arrival": int((missed & ~over).sum()),
     }
+    if partial is not None:
+        counts["chunks_reused"] = partial.chunks_reused
     return src[keep], dst[keep], durations[keep], np.asarray(out.energy, float)[keep], counts
 
 
 def _complete(cost: EnergyCost, roadmap: Roadmap, options: RoadmapOptions, tqdm,
               show_progress: bool) -> Roadmap:
-    """Evaluate the NaN edges of a loaded roadmap and drop the refused ones (eager use of a
-    lazily built file)."""
+    """Evaluate the NaN edges of a loaded (lazy) roadmap, dropping the refused ones."""
     import time
 
     from .lazy import evaluate_edges  # the lazy module builds on this one
@@ -616,7 +632,10 @@ def build_roadmap(
     overrides ``checker.fingerprint()`` in the key (it must change whenever the
     free configurations or edges do). With ``cache`` (a ``.npz`` path), a file
     built with the same key is loaded instead of rebuilding; a file with another
-    key or a bad checksum raises ValueError (delete it to rebuild).
+    key or a bad checksum raises ValueError (delete it to rebuild). While the edge
+    energies of a cached build run, finished chunks are kept in ``<cache>.partial/``; an
+    interrupted build run again reuses them (:attr:`Roadmap.chunks_reused`), and the
+    folder is removed once the file is written (docs/design.md §4h).
     """
     import time
 
@@ -631,6 +650,7 @@ def build_roadmap(
         cache = npz_path(cache)
         if cache.exists():
             loaded = Roadmap.load(cache, expected_key=key, nq=arm.nq)
+            shutil.rmtree(partial_dir(cache), ignore_errors=True)  # a leftover of this build
             if evaluate and not loaded.evaluated.all():
                 loaded = _complete(cost, loaded, options, tqdm, show_progress)
                 loaded.save(cache)
@@ -649,12 +669,14 @@ def build_roadmap(
     t0 = time.perf_counter()
     if evaluate:
         src, dst, durations, energy, counts = _cost_edges(
-            cost, nodes, pairs, options, tqdm, show_progress
+            cost, nodes, pairs, options, tqdm, show_progress,
+            resume=None if cache is None else (cache, key),
         )
         timings["edge_energies"] = time.perf_counter() - t0
     else:
         src, dst, durations, energy, counts = _candidate_edges(nodes, pairs, options, arm)
         timings["edge_timing"] = time.perf_counter() - t0
+    reused = int(counts.pop("chunks_reused", 0))
 
     roadmap = Roadmap(
         nodes=nodes,
@@ -667,7 +689,9 @@ def build_roadmap(
         key=key,
         timings=timings,
         edge_counts=counts,
+        chunks_reused=reused,
     )
     if cache is not None:
         roadmap.save(cache)
+        shutil.rmtree(partial_dir(cache), ignore_errors=True)
     return roadmap

@@ -329,7 +329,8 @@ def test_cli_says_how_many_chunks_it_reused(tmp_path, capsys, monkeypatch):
     cache, out = tmp_path / "rm.npz", tmp_path / "out"
     monkeypatch.setattr("mpd_pin.dynamics.cost.IN_PROCESS_CHUNK_SIZE", 64)
     monkeypatch.setattr(rmod, "_tqdm", lambda show: _interrupting_bar(2 * 64))
-    args = ["run", str(scn), "--out", str(out), "--no-replay", "--cache", str(cache)]
+    args = ["run", str(scn), "--out", str(out), "--no-replay", "--cache", str(cache),
+            "--evaluation", "eager"]  # an eager build (lazy runs simulate a few edges)
     assert main(args) == 130
     assert "interrupted" in capsys.readouterr().err
     saved = len(list(rs.partial_dir(cache).glob("chunk-*.npz")))

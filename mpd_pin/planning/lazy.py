@@ -37,9 +37,10 @@ from .roadmap import Roadmap, RoadmapOptions, feasibility
 
 __all__ = ["LazyEdges", "CostView", "SAFETY", "evaluate_edges", "lazy_plan"]
 
-#: Rounds of at most this many edges run in this process on one thread: measured on the
-#: planar 3-link arm, a 4-edge batch took 30 ms on 1 thread against 85 ms on 2 (16 edges:
-#: 46 vs 95 ms, 64: 102 vs 147 ms), the threads' start-up dominating small batches.
+#: Rounds of at most this many edges run in this process on one thread, whatever the
+#: executor: measured on the planar 3-link arm, a 4-edge batch took 30 ms on 1 thread
+#: against 85 ms on 2 (16 edges: 46 vs 95 ms, 64: 102 vs 147 ms), and lazy rounds sent to
+#: a LocalCluster ran at 0.33–1.2× the in-process speed (docs/design.md §4h).
 SMALL_BATCH = 128
 
 #: After a bound violation, unevaluated bounds are scaled to this fraction of the smallest
@@ -61,9 +62,9 @@ def evaluate_edges(
     model = cost.drive.arm.model
     nodes = roadmap.nodes
     Q0, Q1, T = nodes[roadmap.src[ids]], nodes[roadmap.dst[ids]], roadmap.durations[ids]
-    if ids.size <= SMALL_BATCH and getattr(cost, "executor", None) is None and hasattr(
-        cost, "dt"
-    ):  # a LazySP round in this process: one thread (the same rows, docs/design.md §4g)
+    if ids.size <= SMALL_BATCH and hasattr(cost, "drive") and hasattr(cost, "dt"):
+        # a LazySP round in this process on one thread, also with a cluster (round trips
+        # do not pay for a few edges, docs/design.md §4h); the same rows (§4g)
         out = edge_outcomes(cost.drive, Q0, _target(cost, Q0, Q1), T, cost.dt, threads=1,
                             progress=progress)
     else:  # the executor seam; the shorter way round is taken inside outcomes (§1d)

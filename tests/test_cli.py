@@ -352,7 +352,8 @@ def test_bad_urdf_path(tmp_path):
         ('preset = "turbo"', "mpd-pin: error: motor.preset: 'turbo' is not one of "
                              "['paper', 'servo', 'sized']"),
         ("R = 'one'", "mpd-pin: error: motor.R: expected a number, got 'one'"),
-        ("R = 0.0", "mpd-pin: error: motor: DCMotor.R must be a finite number > 0, got 0.0"),
+        ("R = 0.0",
+         "mpd-pin: error: motor.R = 0 Ω is outside the motor resistance range [1e-06, 10000] Ω"),
     ],
 )
 def test_motor_errors_have_one_prefix(tmp_path, motor, line):
@@ -406,7 +407,8 @@ def test_per_joint_motor_tables(tmp_path):
         ("\n    [motor]\n    gear_ratio = [9.0, 5.0, 3.0]\n",
          "motor.gear_ratio: expected one value or 2 values (one per joint), got 3"),
         ("\n    [motor]\n    R = [1.0, 0.0]\n",
-         "motor (joint 1): DCMotor.R must be a finite number > 0, got 0.0"),
+         "motor.R[1] = 0 Ω is outside the motor resistance range [1e-06, 10000] Ω "
+         "(joint 'joint2')"),
         ("\n    [[motors]]\n    gear_ratio = 9.0\n",
          "motors: expected one [[motors]] table per joint (2), got 1"),
         ("\n    [[motors]]\n    R = 1.0\n    [[motors]]\n    gear = 2.0\n",

@@ -8,6 +8,7 @@ built-in scenario still parse.
 
 import copy
 import math
+import re
 import subprocess
 import sys
 
@@ -469,27 +470,42 @@ def test_weak_motor_refused_against_hand_gravity(tmp_path):
     assert np.abs(scn.arm.gravity(scn.goal))[0] == pytest.approx(g1, rel=1e-12)
 
 
-def test_no_path_message_counts_refused_edges(tmp_path):
+@pytest.mark.parametrize("evaluation", ["eager", "lazy"])
+def test_no_path_message_counts_refused_edges(tmp_path, evaluation):
     """Edges too fast for the motors are refused (they do not arrive, or need more torque
-    than the effort limit); when no path is left the message counts them by reason."""
+    than the effort limit); when no path is left the message counts them by reason. Eager:
+    the counts of the whole roadmap; lazy: of the edges it simulated, out of the same
+    collision-free edges."""
     from mpd_pin.app.plan import prepare
 
     limits = {"shoulder": {"velocity": 1.5, "effort": 30.0}, "elbow": {"velocity": 2.5,
                                                                         "effort": 20.0}}
-    fast = {"velocity_limits": False, "duration": 0.1, "dt": 0.001}
+    fast = {"velocity_limits": False, "duration": 0.1, "dt": 0.001, "evaluation": "eager"}
     path = _hand_scenario(tmp_path, limits, roadmap=fast, goal=(1.0, 0.5))
-    code, lines = _run_cli(path, tmp_path)
-    assert code == 3 and len(lines) == 1, lines
-    rm = prepare(load_scenario(str(path)), show_progress=False).roadmap  # the same build
+    rm = prepare(load_scenario(str(path)), show_progress=False).roadmap  # the whole build
     counts = rm.edge_counts
     refused = counts["refused_effort"] + counts["refused_arrival"]
     assert refused > 0
+    total = rm.num_edges + refused  # the collision-free directed edges
+    if evaluation == "lazy":
+        fast["evaluation"] = "lazy"
+        path = _hand_scenario(tmp_path, limits, roadmap=fast, goal=(1.0, 0.5))
+    code, lines = _run_cli(path, tmp_path)
+    assert code == 3 and len(lines) == 1, lines
     assert lines[0].startswith("mpd-pin: no path: ")
-    assert (f"the roadmap refused {refused} of its {rm.num_edges + refused} collision-free "
-            "directed edges: ") in lines[0]
-    if counts["refused_effort"]:
-        assert f"{counts['refused_effort']} because the motor torque" in lines[0]
-    if counts["refused_arrival"]:
-        assert (f"{counts['refused_arrival']} because the simulated motion ended more than "
-                "0.01 rad from its end node") in lines[0]
+    if evaluation == "lazy":
+        m = re.search(r"the roadmap refused (\d+) of its (\d+) collision-free directed edges "
+                      r"\(lazy evaluation simulated (\d+) of them\): ", lines[0])
+        assert m, lines[0]
+        k, n, simulated = map(int, m.groups())
+        assert n == total and 0 < k <= min(refused, simulated) and simulated <= total
+        assert "because the motor torque" in lines[0] or "ended more than" in lines[0]
+    else:
+        assert (f"the roadmap refused {refused} of its {total} collision-free "
+                "directed edges: ") in lines[0]
+        if counts["refused_effort"]:
+            assert f"{counts['refused_effort']} because the motor torque" in lines[0]
+        if counts["refused_arrival"]:
+            assert (f"{counts['refused_arrival']} because the simulated motion ended more "
+                    "than 0.01 rad from its end node") in lines[0]
     assert 'preset = "sized"' in lines[0] and "longer edges" in lines[0]

@@ -174,16 +174,22 @@ def plan_path(scn: EnergyScenario, setup: Setup) -> PlanResult:
             return _plan_lazy(scn, setup, "energy")
         return _plan_on(scn, setup, setup.roadmap)
     except NoPathError as exc:
-        note = refusal_note(setup.roadmap, scn.options.arrival_tolerance)
+        if setup.lazy is None:
+            note = refusal_note(setup.roadmap, scn.options.arrival_tolerance)
+        else:  # a lazy roadmap still holds its refused edges (§4g)
+            lazy = setup.lazy
+            note = refusal_note(lazy.roadmap.without_edges(lazy.refused),
+                                scn.options.arrival_tolerance, simulated=lazy.count.simulated)
         if not note:
             raise
         raise NoPathError(f"{exc}; {note}") from None
 
 
-def refusal_note(roadmap: Roadmap, tolerance: float) -> str:
+def refusal_note(roadmap: Roadmap, tolerance: float, simulated: int | None = None) -> str:
     """Why a roadmap may lack the edges a path needs: its counts of directed edges refused
     for the effort limits and for not arriving (docs/design.md §4e), with what to try;
-    "" if none was refused."""
+    "" if none was refused. ``roadmap`` holds the edges left after the refusals; with
+    ``simulated`` (lazy evaluation, §4g) the note says how many edges were simulated."""
     counts = roadmap.edge_counts or {}
     effort, arrival = int(counts.get("refused_effort", 0)), int(counts.get("refused_arrival", 0))
     if effort + arrival == 0:
@@ -195,9 +201,10 @@ def refusal_note(roadmap: Roadmap, tolerance: float) -> str:
     if arrival:
         parts.append(f"{arrival} because the simulated motion ended more than {tolerance:g} rad "
                      "from its end node")
+    lazy = "" if simulated is None else f" (lazy evaluation simulated {simulated} of them)"
     return (f"the roadmap refused {effort + arrival} of its {total} collision-free directed "
-            f"edges: {' and '.join(parts)}; try motors that can follow the edges ([motor] preset "
-            '= "sized") or longer edges ([roadmap] duration, or duration_rule = "distance" '
+            f"edges{lazy}: {' and '.join(parts)}; try motors that can follow the edges "
+            '([motor] preset = "sized") or longer edges ([roadmap] duration, or duration_rule = "distance" '
             "with a lower joint_speed)")
 
 

@@ -204,8 +204,8 @@ def refusal_note(roadmap: Roadmap, tolerance: float, simulated: int | None = Non
     lazy = "" if simulated is None else f" (lazy evaluation simulated {simulated} of them)"
     return (f"the roadmap refused {effort + arrival} of its {total} collision-free directed "
             f"edges{lazy}: {' and '.join(parts)}; try motors that can follow the edges "
-            '([motor] preset = "sized") or longer edges ([roadmap] duration, or duration_rule = "distance" '
-            "with a lower joint_speed)")
+            '([motor] preset = "sized") or longer edges ([roadmap] duration, or '
+            'duration_rule = "distance" with a lower joint_speed)')
 
 
 def plan_shortest(scn: EnergyScenario, setup: Setup) -> PlanResult:

@@ -10,6 +10,7 @@ import pinocchio as pin
 import pytest
 from conftest import _no_constant, read_result, run_cli
 from replay_helpers import animation_clips, decode_commands, screenshots, track
+from scenario_texts import SMALL_2LINK
 
 import mpd_pin as mp
 from mpd_pin.app.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
@@ -253,18 +254,7 @@ def _write(tmp_path, text):
     return path
 
 
-GOOD = """
-    [arm]
-    builtin = "planar_2link"
-    [roadmap]
-    num_nodes = 30
-    k = 6
-    duration = 0.5
-    dt = 0.01
-    [task]
-    start = [0.3, 0.2]
-    goal = [1.2, -0.4]
-"""
+GOOD = "\n" + textwrap.indent(SMALL_2LINK, "    ")
 
 
 def _assert_one_line_error(res, pattern):

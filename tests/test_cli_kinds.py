@@ -3,12 +3,12 @@
 
 import json
 import shutil
-import textwrap
 from importlib import resources
 from pathlib import Path
 
 import pytest
 from conftest import run_cli
+from scenario_texts import SMALL_2LINK
 
 from mpd_pin.app.cli import main as cli_main
 from mpd_pin.app.config import ConfigError
@@ -19,18 +19,7 @@ from mpd_pin.twolink.scenario import DynamicScenario
 
 ROBOTS = Path(__file__).resolve().parents[1] / "robots"
 
-ENERGY = textwrap.dedent("""
-    [arm]
-    builtin = "planar_2link"
-    [roadmap]
-    num_nodes = 30
-    k = 6
-    duration = 0.5
-    dt = 0.01
-    [task]
-    start = [0.3, 0.2]
-    goal = [1.2, -0.4]
-""")
+ENERGY = SMALL_2LINK
 DYNAMIC = (resources.files("mpd_pin") / "scenarios" / "env1.toml").read_text()
 ARM_LINE = 'builtin = "planar_2link"'
 

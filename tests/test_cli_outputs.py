@@ -3,13 +3,13 @@ and result.json), ``mpd-pin show``, choosing the IK solution of start_ee/goal_ee
 posture or an elbow side, and the out-of-reach distance (issue 17, points 1, 5 and 8)."""
 
 import re
-import textwrap
 import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import read_result, run_cli
+from scenario_texts import SMALL_2LINK
 
 from mpd_pin.app.config import ConfigError
 from mpd_pin.app.outputs import PAPER_MOTOR_SECTION
@@ -19,18 +19,7 @@ ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text(encoding="utf-8")
 LINKS_3 = np.array([0.5, 0.4, 0.3])  # planar_3link (mpd_pin/arm/builtin.py)
 
-SMALL = textwrap.dedent("""
-    [arm]
-    builtin = "planar_2link"
-    [roadmap]
-    num_nodes = 30
-    k = 6
-    duration = 0.5
-    dt = 0.01
-    [task]
-    start = [0.3, 0.2]
-    goal = [1.2, -0.4]
-""")
+SMALL = SMALL_2LINK
 
 
 def _headings(text):

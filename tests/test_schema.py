@@ -5,32 +5,20 @@ missing key, an undocumented field or a wrong type is refused."""
 import copy
 import json
 import re
-import textwrap
 import tomllib
 from pathlib import Path
 
 import jsonschema
 import pytest
 from conftest import read_result, run_cli, validate_new_results
+from scenario_texts import SMALL_2LINK
 
 from mpd_pin.app.results import result_schema, validate_result
 from mpd_pin.twolink.run import run_dynamic_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
-SMALL = textwrap.dedent("""
-    name = "small"
-    [arm]
-    builtin = "planar_2link"
-    [roadmap]
-    num_nodes = 30
-    k = 6
-    duration = 0.5
-    dt = 0.01
-    [task]
-    start = [0.3, 0.2]
-    goal = [1.2, -0.4]
-""")
+SMALL = 'name = "small"\n' + SMALL_2LINK
 
 
 @pytest.fixture(scope="module")

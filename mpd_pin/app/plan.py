@@ -257,22 +257,33 @@ def _plan_on(scn: EnergyScenario, setup: Setup, costs: Roadmap) -> PlanResult:
             planner=planner,
         )
         run.energy = roadmap.path_energy(run.travelled)  # the planner's costs may be penalised
-        if run.initial_path != run.travelled:
-            other_paths["initial plan (before the new obstacle)"] = run.initial_path
-        search = {
-            "initial_plan_seconds": run.initial_plan_seconds,
-            "expansions": run.initial_expansions,
-        }
-        return PlanResult(run.travelled, run.energy, search, hazard, run, other_paths)
+        return _executed(run, hazard, other_paths)
     p = planner(plan_map.graph(), roadmap.start, roadmap.goal)
     ts = time.perf_counter()
     plan = p.plan()
+    return _searched(roadmap, p, plan, time.perf_counter() - ts, hazard, other_paths)
+
+
+def _executed(run: ExecutionResult, hazard, other_paths: dict[str, list[int]]) -> PlanResult:
+    """The PlanResult of an execution with sensing and repair: the travelled path."""
+    if run.initial_path != run.travelled:
+        other_paths["initial plan (before the new obstacle)"] = run.initial_path
     search = {
-        "initial_plan_seconds": time.perf_counter() - ts,
+        "initial_plan_seconds": run.initial_plan_seconds,
+        "expansions": run.initial_expansions,
+    }
+    return PlanResult(run.travelled, run.energy, search, hazard, run, other_paths)
+
+
+def _searched(roadmap: Roadmap, p, plan, seconds: float, hazard,
+              other_paths: dict[str, list[int]]) -> PlanResult:
+    """The PlanResult of one search ``p`` (its ``plan`` took ``seconds``); with hazards the
+    path is the re-planned one (penalised costs), else the plan. Energies: the roadmap's."""
+    search = {
+        "initial_plan_seconds": seconds,
         "expansions": p.stats.expansions,
         "edge_evaluations": p.stats.edge_evaluations,
     }
-    # With hazards the path is the re-planned one (penalised costs); else the plan.
     path = list(hazard.final_path) if hazard is not None else list(plan.nodes)
     return PlanResult(path, roadmap.path_energy(path), search, hazard, None, other_paths)
 
@@ -299,23 +310,11 @@ def _plan_lazy(scn: EnergyScenario, setup: Setup, kind: str) -> PlanResult:
                 roadmap, setup.checker, sensor_range=float(scn.sensor_range),
                 resolution=scn.options.resolution, planner=planner, view=view,
             )
-            if run.initial_path != run.travelled:
-                other_paths["initial plan (before the new obstacle)"] = run.initial_path
-            search = {
-                "initial_plan_seconds": run.initial_plan_seconds,
-                "expansions": run.initial_expansions,
-            }
-            return PlanResult(run.travelled, run.energy, search, hazard, run, other_paths)
+            return _executed(run, hazard, other_paths)
         p = planner(view.graph(), roadmap.start, roadmap.goal)
         ts = time.perf_counter()
         plan = view.settle(p)
-        search = {
-            "initial_plan_seconds": time.perf_counter() - ts,
-            "expansions": p.stats.expansions,
-            "edge_evaluations": p.stats.edge_evaluations,
-        }
-        path = list(hazard.final_path) if hazard is not None else list(plan.nodes)
-        return PlanResult(path, roadmap.path_energy(path), search, hazard, None, other_paths)
+        return _searched(roadmap, p, plan, time.perf_counter() - ts, hazard, other_paths)
     finally:
         if setup.cache is not None:
             lazy.save(setup.cache)

@@ -9,7 +9,7 @@ D=$(mktemp -d)
 PORT=$(python -c "import socket; s=socket.socket(); s.bind(('127.0.0.1',0)); print(s.getsockname()[1])")
 partials() { ls "$1" 2>/dev/null | wc -l; }
 
-mpd-pin run case3 --out "$D/ref" --quiet --no-replay --cache "$D/ref.npz" >/dev/null
+mpd-pin run case3 --evaluation eager --out "$D/ref" --quiet --no-replay --cache "$D/ref.npz" >/dev/null
 
 dask scheduler --host 127.0.0.1 --port "$PORT" --dashboard-address :0 >"$D/sched.log" 2>&1 &
 SCHED=$!
@@ -19,7 +19,7 @@ W1=$!
 dask worker "tcp://127.0.0.1:$PORT" --nthreads 1 --no-nanny >"$D/w2.log" 2>&1 &
 W2=$!
 sleep 4
-mpd-pin run case3 --out "$D/cl" --quiet --no-replay --cache "$D/cl.npz" \
+mpd-pin run case3 --evaluation eager --out "$D/cl" --quiet --no-replay --cache "$D/cl.npz" \
     --scheduler "tcp://127.0.0.1:$PORT" &
 RUN=$!
 while [ "$(partials "$D/cl.npz.partial")" -lt 2 ] && kill -0 $RUN 2>/dev/null; do sleep 0.05; done
@@ -30,13 +30,13 @@ echo "cluster run exit $?"
 kill $W1 $SCHED 2>/dev/null
 wait 2>/dev/null
 
-mpd-pin run case3 --out "$D/rs" --quiet --no-replay --cache "$D/rs.npz" &
+mpd-pin run case3 --evaluation eager --out "$D/rs" --quiet --no-replay --cache "$D/rs.npz" &
 RUN=$!
 while [ "$(partials "$D/rs.npz.partial")" -lt 1 ] && kill -0 $RUN 2>/dev/null; do sleep 0.05; done
 kill -9 $RUN 2>/dev/null
 wait $RUN 2>/dev/null
 echo "in-process build killed after $(partials "$D/rs.npz.partial") chunk(s); resuming"
-mpd-pin run case3 --out "$D/rs" --quiet --no-replay --cache "$D/rs.npz"
+mpd-pin run case3 --evaluation eager --out "$D/rs" --quiet --no-replay --cache "$D/rs.npz"
 
 python - "$D" <<'PY'
 import json, sys

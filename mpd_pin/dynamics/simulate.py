@@ -34,6 +34,7 @@ import pinocchio as pin
 
 from .current import current_step
 from .motor import Drive
+from .tracking import _pool, feedforward_tables, integrate_tables
 
 __all__ = [
     "EdgeSimulation",
@@ -133,25 +134,13 @@ def _per_edge(a: np.ndarray) -> np.ndarray:
 def _feedforward_batch(drive: Drive, Q0: np.ndarray, DQ: np.ndarray, tau: np.ndarray, T):
     """V_ff and i_ff, shape (nt, K, nq), for K edges at the normalised times ``tau``
     ((nt,) shared, or (nt, K) with ``T`` (s) one per edge)."""
-    from .batch import rnea_with_derivative
-
     s, sd, sdd, sddd = (_per_edge(a) for a in quintic(tau, T))
-    nt = tau.shape[0]
-    K, nq = Q0.shape
     # (nt, K, nq) laid out so that the (nq, nt*K) transpose is Fortran-contiguous.
     Qr = Q0[None] + DQ[None] * s
     Vr = DQ[None] * sd
     Ar = DQ[None] * sdd
     Jr = DQ[None] * sddd
-    flat = (nt * K, nq)
-    tau_r, dtau_r = rnea_with_derivative(
-        drive.model, Qr.reshape(flat).T, Vr.reshape(flat).T, Ar.reshape(flat).T, Jr.reshape(flat).T
-    )
-    tau_ff = tau_r.T.reshape(nt, K, nq) + drive.damping * Vr
-    dtau_ff = dtau_r.T.reshape(nt, K, nq) + drive.damping * Ar
-    i_ff = tau_ff / drive.torque_per_amp
-    Vff = drive.R * i_ff + drive.L * (dtau_ff / drive.torque_per_amp) + drive.emf_per_rad_s * Vr
-    return Vff, i_ff
+    return feedforward_tables(drive, Qr, Vr, Ar, Jr)
 
 
 # ------------------------------------------------------------------------ single edge
@@ -317,16 +306,6 @@ def _check_batch(drive: Drive, Q0, Q1) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(Q0), np.ascontiguousarray(Q1)
 
 
-def _pool(drive: Drive, threads: int) -> pin.ModelPool:
-    """A ModelPool of the drive's (armature-carrying) model, cached on the drive."""
-    key = ("_mpd_pool", threads)
-    cached = drive.__dict__.get("_pool_cache")
-    if cached is None or cached[0] != key or cached[2] is not drive.model:
-        cached = (key, pin.ModelPool(drive.model, threads), drive.model)
-        drive.__dict__["_pool_cache"] = cached
-    return cached[1]
-
-
 def _reference_table(drive: Drive, Q0, DQ, half, T, s, sd, pool, threads: int):
     """W = V_ff + Kp q_ref + Kd q̇_ref on the half-step grid, (nt, K, nq) V, and the
     initial (holding) current i0 = G(q⁰)/(n Kt), (K, nq) A."""
@@ -372,102 +351,9 @@ def _integrate_batch(
     DQ = Q1 - Q0
     half = np.minimum(np.arange(2 * n_max + 1)[:, None] / (2 * N)[None, :], 1.0)  # (nt, K)
     s, sd, _, _ = (_per_edge(a) for a in quintic(half, T))
-    kp, kd, vmax = drive.kp_vec, drive.kd_vec, drive.v_max
     pool = _pool(drive, threads)
     W, i0 = _reference_table(drive, Q0, DQ, half, T, s, sd, pool, threads)
-    invL = 1.0 / drive.L
-    r_l, ke_l, ktn, damp = drive.R * invL, drive.emf_per_rad_s * invL, drive.torque_per_amp, (
-        drive.damping
-    )
-    saturate = drive.saturated
-
-    X = np.zeros((5, K, nq))
-    X[0] = Q0
-    X[2] = i0
-    Xs = np.zeros_like(X)
-    k1, k2, k3, k4 = (np.empty_like(X) for _ in range(4))
-    V = np.empty((K, nq))
-    trq = np.empty((K, nq))
-    tmp = np.empty((K, nq))
-
-    def stage(j: int, x: np.ndarray, out: np.ndarray) -> None:
-        q, v, i = x[0], x[1], x[2]
-        np.multiply(q, kp, out=V)
-        np.subtract(W[j], V, out=V)
-        np.multiply(v, kd, out=tmp)
-        np.subtract(V, tmp, out=V)
-        if saturate:
-            np.clip(V, -vmax, vmax, out=V)
-        np.multiply(i, ktn, out=trq)
-        np.multiply(v, damp, out=tmp)
-        np.subtract(trq, tmp, out=trq)
-        pin.abaInParallel(threads, pool, q.T, v.T, trq.T, out[1].T)
-        np.copyto(out[0], v)
-        di = out[2]
-        np.multiply(V, invL, out=di)  # di/dt = (V − R i − n Ke q̇) / L
-        np.multiply(i, r_l, out=tmp)
-        di -= tmp
-        np.multiply(v, ke_l, out=tmp)
-        di -= tmp
-        np.multiply(V, i, out=out[4])
-        np.maximum(out[4], 0.0, out=out[3])
-
-    xs, x3 = Xs[:3], X[:3]
-    w = h / 6.0
-    cs = current_step(drive, h)
-    sj = np.flatnonzero(cs.stiff)
-    kp_s, kd_s, ke_s = kp[sj], kd[sj], drive.emf_per_rad_s[sj]
-    vmax_s = vmax[sj] if saturate else None
-
-    def forcing(j: int, x: np.ndarray) -> np.ndarray:
-        """N = (V − n Ke q̇)/L (A/s) of the stiff joints at stage state ``x``, (K, s)."""
-        q, v = x[0][:, sj], x[1][:, sj]
-        Vs = W[j][:, sj] - kp_s * q - kd_s * v
-        if saturate:
-            np.clip(Vs, -vmax_s, vmax_s, out=Vs)
-        return (Vs - ke_s * v) * cs.inv_L
-
-    peak_i = np.abs(X[2])
-    result = [np.empty((K, nq)) for _ in range(5)]
-    ending = {int(n): np.flatnonzero(N == n) for n in np.unique(N)}
-    for n in range(n_max):
-        j = 2 * n
-        if cs.any:
-            i0, n0 = X[2][:, sj], forcing(j, X)
-        stage(j, X, k1)
-        np.multiply(k1[:3], 0.5 * h, out=xs)
-        xs += x3
-        if cs.any:
-            Xs[2][:, sj] = cs.half(i0, n0, forcing(j + 1, Xs))
-        stage(j + 1, Xs, k2)
-        np.multiply(k2[:3], 0.5 * h, out=xs)
-        xs += x3
-        if cs.any:
-            Xs[2][:, sj] = cs.half(i0, n0, forcing(j + 1, Xs))
-        stage(j + 1, Xs, k3)
-        np.multiply(k3[:3], h, out=xs)
-        xs += x3
-        if cs.any:
-            Xs[2][:, sj] = cs.full(i0, n0, forcing(j + 2, Xs))
-        stage(j + 2, Xs, k4)
-        k2 += k3
-        k2 *= 2.0
-        k2 += k1
-        k2 += k4
-        k2 *= w
-        X += k2
-        if cs.any:
-            X[2][:, sj] = cs.full(i0, n0, forcing(j + 2, X))
-        np.abs(X[2], out=tmp)
-        np.maximum(peak_i, tmp, out=peak_i)
-        idx = ending.get(n + 1)
-        if idx is not None:
-            for arr, now in zip(result, (X[3], X[4], X[0] - Q1, X[1], peak_i), strict=True):
-                arr[idx] = now[idx]
-    result[4] *= drive.torque_per_amp
-    if not (np.all(np.isfinite(result[0])) and np.all(np.isfinite(result[2]))):
-        raise ValueError("integration diverged on some edges; reduce dt or the gains")
-    return tuple(result)
+    return integrate_tables(drive, Q0, Q1, W, i0, N, h, threads, pool)
 
 
 @dataclass(frozen=True)

@@ -38,6 +38,8 @@ _LAZY = {
     "quintic": "dynamics",
     "simulate_edge": "dynamics",
     "sized_motors": "dynamics",
+    "MotionEnergy": "motion",
+    "trajectory_energy": "motion",
     "MpdPinError": "errors",
     "NoPathError": "errors",
 }

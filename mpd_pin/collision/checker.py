@@ -46,8 +46,10 @@ from .motion import (
     MIN_STEP,
     CertificationModel,
     LevelCache,
+    box_sizes,
     certification_model,
     certify,
+    certify_boxes,
     edge_collides_discrete,
     edges_collide_discrete,
 )
@@ -444,6 +446,34 @@ class CollisionChecker:
             self.bounds, Q0, Q1, h0, self.min_step, self._pools if parallel else None,
         )
         return ok
+
+    def _cert_model(self):
+        require_supported(self.bounds)
+        if self._cert is None:
+            self._cert = certification_model(
+                self.model, self.geometry, self._pool, self.num_threads,
+                hulls=self.certify_on_hulls,
+            )
+        return self._cert
+
+    def box_sizes(self, C: Any, Delta: Any) -> np.ndarray:
+        """(B,) normalised size (rad) of the joint-space boxes ``C ± Delta`` (each row one
+        box): the level :meth:`boxes_clear` needs (docs/design.md §4d, "Curves")."""
+        self._sync()
+        return box_sizes(self._levels, self._state, self.bounds, self._batch(C, "C"),
+                         np.asarray(Delta, dtype=float))
+
+    def boxes_clear(self, C: Any, Delta: Any, h: float) -> tuple[np.ndarray, np.ndarray]:
+        """Certify whole joint-space boxes ``|q − C[b]| ≤ Delta[b]`` (rad, per joint) of
+        normalised size ≤ ``h`` (rad, :meth:`box_sizes`) by one query each at the centre:
+        ``(clear, hit)`` (B,) bool — proven free, and centre in collision (exact margins).
+        Curves certify by covering themselves with such boxes (:mod:`mpd_pin.motion`)."""
+        C = self._batch(C, "C")
+        self._sync()
+        cert = self._cert_model()
+        return certify_boxes(self.model, self.data, self._exact, cert, self._levels,
+                             self._state, self.bounds, C, np.asarray(Delta, dtype=float),
+                             float(h), self._pools if C.shape[0] > 1 else None)
 
     def edge_free(self, q0: Any, q1: Any, resolution: float, mode: str | None = None) -> bool:
         """True if the straight joint-space edge q0 → q1 is collision-free (on continuous

@@ -104,6 +104,8 @@ __all__ = [
     "certification_model",
     "LevelCache",
     "certify",
+    "certify_boxes",
+    "box_sizes",
 ]
 
 #: Edge checks: "certified" (continuous, conservative; the default) or "discrete".
@@ -459,3 +461,56 @@ def certify(
         e, i, m = seg_e[fail], seg_i[fail], seg_n[fail]
         h /= 2
     return ~rejected, stats
+
+
+def certify_boxes(
+    model: pin.Model,
+    data: pin.Data,
+    exact: QueryState,
+    cert: CertificationModel,
+    cache: LevelCache,
+    state: PairState,
+    bounds: MotionBounds,
+    C: np.ndarray,
+    Delta: np.ndarray,
+    h: float,
+    pools: PoolLoader | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Certify joint-space boxes |q_k − C[b, k]| ≤ Delta[b, k] (rad) whole: ``(clear, hit)``,
+    (B,) bool each (docs/design.md §4d, "Curves").
+
+    The bound B_p = Σ_k W[p, k] |Δq_k| is joint-wise, so every configuration of box b is
+    within W[p] · Delta[b] of its centre for pair p, whatever path leads there. One query
+    per box at the centre with the margins of level ``h`` (normalised rad) certifies it
+    when the box's normalised size max_p W[p] · 2 Delta[b] / S_p is at most ``h``
+    (ValueError otherwise). ``clear``: certified; ``hit``: the centre itself collides at
+    the exact margins (checked only where ``clear`` is False)."""
+    require_supported(bounds)
+    cache = cache.at(state.epoch)
+    C = np.ascontiguousarray(C, dtype=float)
+    Delta = np.abs(np.asarray(Delta, dtype=float))
+    B = C.shape[0]
+    if B == 0:
+        return np.zeros(0, dtype=bool), np.zeros(0, dtype=bool)
+    qabs = max_abs(bounds, C - Delta, C + Delta)
+    W, Wn = _weights_normalised(cache, bounds, state, qabs)
+    lam = (2.0 * Delta @ Wn.T).max(axis=1) if Wn.size else np.zeros(B)
+    if np.any(lam > h * (1.0 + 1e-9)):
+        raise ValueError(f"boxes of normalised size up to {lam.max():.3g} rad exceed level {h:g}")
+    fail = batch_collides(model, data, _level(model, data, exact, cert, cache, state, h, W, qabs),
+                          C, pools)
+    hit = np.zeros(B, dtype=bool)
+    if fail.any():
+        hit[fail] = batch_collides(model, data, exact, C[fail], pools)
+    return ~fail, hit
+
+
+def box_sizes(
+    cache: LevelCache, state: PairState, bounds: MotionBounds, C: np.ndarray, Delta: np.ndarray
+) -> np.ndarray:
+    """(B,) normalised size max_p W[p] · 2 Delta[b] / S_p (rad) of boxes around ``C``."""
+    cache = cache.at(state.epoch)
+    Delta = np.abs(np.asarray(Delta, dtype=float))
+    qabs = max_abs(bounds, C - Delta, C + Delta)
+    _, Wn = _weights_normalised(cache, bounds, state, qabs)
+    return (2.0 * Delta @ Wn.T).max(axis=1) if Wn.size else np.zeros(C.shape[0])

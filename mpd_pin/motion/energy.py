@@ -1,0 +1,417 @@
+"""The energy of any path: stop-and-go or non-stop execution (docs/design.md §9a–§9c).
+
+:func:`trajectory_energy` prices a list of joint-space waypoints with the same motor,
+controller, current model and RK4 as the roadmap edges (paper 000 eq. 2: E⁺ = Σ_k ∫
+max(V_k i_k, 0) dt):
+
+* ``"stop"`` — each segment is a rest-to-rest quintic edge timed by the roadmap's rule
+  (:meth:`~mpd_pin.planning.roadmap.RoadmapOptions.timing`): exactly what the roadmap
+  charges for the same edges (the same batched integrator, the same durations);
+* ``"nonstop"`` — one quintic spline in time through the via points
+  (:mod:`mpd_pin.motion.spline`), simulated in one piece, its duration chosen for the least
+  energy within the velocity limits (and ``max_duration``): slow motions pay holding
+  current and friction, fast ones copper loss. Where the curve is not certified free
+  (with a ``checker``) the motion keeps a stop at the via point nearest the failure and is
+  two non-stop pieces, down to single straight edges (which the stop mode certifies);
+* ``"auto"`` — both, and the cheaper feasible one is returned.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..dynamics.motor import Drive
+from ..dynamics.simulate import edge_outcomes, step_count
+from ..dynamics.tracking import _pool, feedforward_tables, integrate_tables
+from .spline import ViaSpline, arc_boxes, pieces, unit_knots, via_spline
+
+__all__ = ["EXECUTIONS", "MotionEnergy", "trajectory_energy", "check_waypoints",
+           "nonstop_tables"]
+
+#: Values of ``execution``; the first is the default.
+EXECUTIONS = ("auto", "stop", "nonstop")
+
+#: Duration search of a non-stop piece: candidates in the first batch and in the refinement.
+FIRST_GRID, SECOND_GRID = 6, 4
+
+#: The longest non-stop duration tried, as a multiple of the fastest one allowed.
+STRETCH = 3.0
+
+
+@dataclass
+class MotionEnergy:
+    """What a path costs when the arm runs it (all energies E⁺, J; times s; angles rad).
+
+    execution: "stop" or "nonstop" (the one these numbers are for); waypoints (m+1, nq):
+    the via points as executed (continuous joints unwrapped); stops: via points where the
+    arm comes to rest between start and goal; pieces: (first, last) waypoint index of each
+    piece run in one go; piece_durations (s); energy_per_joint, total_energy (J);
+    duration (s); end_error: largest |q(T) − q_end| over pieces and joints (rad);
+    velocity_ratio: peak |q̇_ref| / velocity limit; effort_ratio: peak |n·Kt·i| / effort
+    limit; feasible: within both limits, arriving within the tolerance, and certified
+    collision-free when a checker was given (``reason`` says why not);
+    energy_by_execution: total E⁺ of each mode evaluated (None: infeasible);
+    duration_curve: (duration, E⁺) pairs the non-stop search simulated.
+    """
+
+    execution: str
+    waypoints: np.ndarray
+    energy_per_joint: np.ndarray
+    total_energy: float
+    duration: float
+    end_error: float
+    velocity_ratio: float
+    effort_ratio: float
+    feasible: bool
+    stops: int
+    pieces: list[tuple[int, int]]
+    piece_durations: np.ndarray
+    reason: str = ""
+    energy_by_execution: dict[str, float | None] = field(default_factory=dict)
+    duration_curve: list[tuple[float, float]] = field(default_factory=list)
+    alternative: MotionEnergy | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON data (docs/design.md §9d)."""
+        return {
+            "execution": self.execution,
+            "feasible": bool(self.feasible),
+            "reason": self.reason,
+            "total_energy": float(self.total_energy),
+            "energy_per_joint": [float(x) for x in self.energy_per_joint],
+            "duration": float(self.duration),
+            "stops": int(self.stops),
+            "pieces": [[int(a), int(b)] for a, b in self.pieces],
+            "piece_durations": [float(x) for x in self.piece_durations],
+            "end_error": float(self.end_error),
+            "velocity_ratio": float(self.velocity_ratio),
+            "effort_ratio": float(self.effort_ratio),
+            "energy_by_execution": {k: (None if v is None else float(v))
+                                    for k, v in self.energy_by_execution.items()},
+            "waypoints": np.asarray(self.waypoints, float).tolist(),
+        }
+
+
+# ----------------------------------------------------------------------------- input
+def check_waypoints(drive: Drive, waypoints: Any) -> np.ndarray:
+    """``waypoints`` as an (m+1, nq) float array, continuous joints unwrapped (each point
+    the shorter way round from the one before, docs/design.md §1d) and repeated points
+    dropped; ValueError naming the row for a wrong shape, NaN or fewer than 2 points."""
+    W = np.asarray(waypoints, dtype=float)
+    nq = drive.nq
+    if W.ndim != 2 or W.shape[1] != nq:
+        raise ValueError(f"waypoints must have shape (m, {nq}) (one configuration per row), "
+                         f"got {W.shape}")
+    bad = np.flatnonzero(~np.isfinite(W).all(axis=1))
+    if bad.size:
+        raise ValueError(f"waypoint row {int(bad[0])} contains NaN or infinity")
+    arm = drive.arm
+    if arm.continuous_joints:
+        W = W.copy()
+        for r in range(1, W.shape[0]):
+            W[r] = arm.edge_target(W[r - 1], W[r])
+    keep = np.concatenate([[True], np.any(np.abs(np.diff(W, axis=0)) > 1e-12, axis=1)])
+    W = W[keep]
+    if W.shape[0] < 2:
+        raise ValueError("waypoints must hold at least two distinct configurations")
+    return W
+
+
+def _limits(drive: Drive) -> tuple[np.ndarray, np.ndarray]:
+    """(velocity limits rad/s, effort limits N·m), inf where the URDF gives none."""
+    model = drive.arm.model
+
+    def clean(x):
+        x = np.asarray(x, dtype=float)
+        return np.where(np.isfinite(x) & (x > 0), x, np.inf)
+
+    return clean(model.velocityLimit), clean(model.effortLimit)
+
+
+# ----------------------------------------------------------------------------- stop
+def _stop(drive: Drive, W: np.ndarray, dt: float, options, checker, effort_on: bool
+          ) -> MotionEnergy:
+    """Rest-to-rest quintic edges between consecutive waypoints, roadmap timing."""
+    Q0, Q1 = W[:-1], W[1:]
+    vlim, elim = _limits(drive)
+    T, _ = options.timing(Q0, Q1, drive.arm.model.velocityLimit)
+    out = edge_outcomes(drive, Q0, Q1, T, dt)
+    energy = out.energy.sum(axis=0)
+    vel = float(np.max(1.875 * np.abs(Q1 - Q0) / T[:, None] / vlim))
+    eff = float(np.max(out.peak_torque / elim))
+    err = float(np.max(np.abs(out.end_error)))
+    reasons = []
+    if effort_on and eff > 1.0 + 1e-12:
+        reasons.append(f"effort limit exceeded ({eff:.3g}× the limit)")
+    if err > options.arrival_tolerance:
+        reasons.append(f"ends {err:.3g} rad from a waypoint (tolerance "
+                       f"{options.arrival_tolerance:g})")
+    if options.velocity_limits is False:
+        vel = vel  # reported, not enforced, as in the roadmap
+    elif vel > 1.0 + 1e-9:
+        reasons.append(f"velocity limit exceeded ({vel:.3g}×)")
+    if checker is not None:
+        free = checker.edges_free(Q0, Q1, options.resolution)
+        if not free.all():
+            reasons.append(f"segment {int(np.flatnonzero(~free)[0])} is not collision-free")
+    m = W.shape[0] - 1
+    return MotionEnergy("stop", W, energy, float(energy.sum()), float(T.sum()), err, vel, eff,
+                        not reasons, m - 1, [(i, i + 1) for i in range(m)], T,
+                        "; ".join(reasons))
+
+
+# ----------------------------------------------------------------------------- non-stop
+def nonstop_tables(drive: Drive, vs: ViaSpline, durations: np.ndarray, dt: float):
+    """The RK4 inputs of the spline ``vs`` stretched to each of ``durations`` (s, on the
+    dt grid): W (nt, K, nq) V, i0 (K, nq) A, steps N (K,), and the end (K, nq) rad."""
+    T = np.asarray(durations, dtype=float)
+    N = np.array([step_count(x, dt) for x in T.tolist()], dtype=np.int64)
+    n_max = int(N.max())
+    half = np.arange(2 * n_max + 1)[:, None] * (dt / 2.0) * np.ones((1, T.size))
+    Qr, Vr, Ar, Jr = vs.derivatives(half, T)
+    if drive.feedforward:
+        W, i_ff = feedforward_tables(drive, Qr, Vr, Ar, Jr)
+        i0 = i_ff[0].copy()
+    else:
+        W = np.zeros_like(Qr)
+        rest = np.zeros_like(Qr[:1])
+        _, i_hold = feedforward_tables(drive, Qr[:1], rest, rest, rest)  # G(q0)/(n Kt)
+        i0 = i_hold[0].copy()
+    W += drive.kp_vec * Qr
+    W += drive.kd_vec * Vr
+    end = np.broadcast_to(vs.waypoints[-1], (T.size, drive.nq)).copy()
+    return W, i0, N, end
+
+
+def _simulate_nonstop(drive: Drive, vs: ViaSpline, durations: np.ndarray, dt: float,
+                      record: bool = False):
+    """Outcomes (E⁺, E, end error, end velocity, peak torque; each (K, nq)) of the spline
+    stretched to each duration, in one batch; with ``record`` also the series."""
+    W, i0, N, end = nonstop_tables(drive, vs, durations, dt)
+    threads = int(os.cpu_count() or 1)
+    Q0 = np.broadcast_to(vs.waypoints[0], end.shape).copy()
+    return integrate_tables(drive, Q0, end, W, i0, N, dt, threads, _pool(drive, threads),
+                            record=record)
+
+
+def _snap(T: np.ndarray | float, dt: float) -> np.ndarray:
+    """Durations rounded up to whole RK4 steps (s)."""
+    return np.ceil(np.asarray(T, dtype=float) / dt - 1e-9) * dt
+
+
+def _piece(drive: Drive, W: np.ndarray, dt: float, options, t_max: float | None,
+           effort_on: bool):
+    """Best duration of one non-stop piece through ``W``: (spline, duration, outcome row
+    dict, curve); outcome None when no duration is feasible."""
+    vlim, elim = _limits(drive)
+    vs = via_spline(W, unit_knots(W, vlim))
+    ratio = vs.peak_speed_ratio(vlim) * 1.002 if options.velocity_limits else 0.0
+    t_lo = float(_snap(max(ratio * vs.unit_duration, options.min_duration), dt))
+    t_hi = max(STRETCH * t_lo, t_lo + 4 * dt)
+    if t_max is not None:
+        t_hi = min(t_hi, t_max)
+        if t_hi < t_lo - 1e-12:
+            return vs, t_lo, None, []
+    curve: list[tuple[float, float]] = []
+    rows: dict[float, dict] = {}
+
+    def run(Ts: np.ndarray) -> None:
+        Ts = np.unique(_snap(Ts, dt))
+        Ts = Ts[[float(x) not in rows for x in Ts]]
+        if not Ts.size:
+            return
+        out = _simulate_nonstop(drive, vs, Ts, dt)
+        E, _, err, _, peak = out
+        for k, T in enumerate(Ts.tolist()):
+            eff = float(np.max(peak[k] / elim))
+            e = float(np.max(np.abs(err[k])))
+            ok = (not effort_on or eff <= 1.0 + 1e-12) and e <= options.arrival_tolerance
+            rows[T] = {"energy": E[k].copy(), "end_error": e, "effort": eff, "ok": ok,
+                       "velocity": ratio / 1.002 * vs.unit_duration / T}
+            curve.append((T, float(E[k].sum())))
+
+    run(np.geomspace(t_lo, t_hi, FIRST_GRID) if t_hi > t_lo else np.array([t_lo]))
+    grid = sorted(rows)
+    ok = [T for T in grid if rows[T]["ok"]]
+    if ok:
+        best = min(ok, key=lambda T: rows[T]["energy"].sum())
+        i = grid.index(best)
+        lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
+        if hi > lo:
+            run(np.linspace(lo, hi, SECOND_GRID + 2)[1:-1])
+    ok = [T for T in rows if rows[T]["ok"]]
+    curve.sort()
+    if not ok:
+        worst = rows[max(rows)]
+        return vs, max(rows), dict(worst, ok=False), curve
+    best = min(ok, key=lambda T: rows[T]["energy"].sum())
+    return vs, best, rows[best], curve
+
+
+def _first_failure(checker, vs: ViaSpline, resolution: float, min_step: float = 1e-6
+                   ) -> float | None:
+    """Certify the spline's whole curve (joint-space boxes from its Bernstein hulls,
+    :func:`~mpd_pin.motion.spline.arc_boxes`); None if free, else the unit time (s) of the
+    first sub-arc that is in collision or too close to call."""
+    a, b = pieces(vs)
+    h = float(resolution)
+    while True:  # split until every box fits level h
+        C, D = arc_boxes(vs, a, b)
+        big = checker.box_sizes(C, D) > h
+        if not big.any():
+            break
+        mid = (a[big] + b[big]) / 2
+        a = np.concatenate([a[~big], a[big], mid])
+        b = np.concatenate([b[~big], mid, b[big]])
+        order = np.argsort(a)
+        a, b = a[order], b[order]
+    while a.size:
+        clear, hit = checker.boxes_clear(C, D, h)
+        if hit.any():
+            return float(a[np.flatnonzero(hit)[0]])
+        a, b = a[~clear], b[~clear]
+        if not a.size:
+            return None
+        h /= 2
+        if h < min_step:
+            return float(a[0])
+        mid = (a + b) / 2
+        a, b = np.concatenate([a, mid]), np.concatenate([mid, b])
+        order = np.argsort(a)
+        a, b = a[order], b[order]
+        while True:
+            C, D = arc_boxes(vs, a, b)
+            big = checker.box_sizes(C, D) > h
+            if not big.any():
+                break
+            mid = (a[big] + b[big]) / 2
+            a = np.concatenate([a[~big], a[big], mid])
+            b = np.concatenate([b[~big], mid, b[big]])
+            order = np.argsort(a)
+            a, b = a[order], b[order]
+    return None
+
+
+def _certified_pieces(W: np.ndarray, checker, resolution: float, vlim: np.ndarray
+                      ) -> list[tuple[int, int]]:
+    """Split the waypoints into pieces whose non-stop curves are certified free: a piece
+    whose curve fails gets a stop at the interior via point nearest the failure."""
+    todo, done = [(0, W.shape[0] - 1)], []
+    while todo:
+        i, j = todo.pop()
+        if j - i < 2 or checker is None:
+            done.append((i, j))
+            continue
+        vs = via_spline(W[i : j + 1], unit_knots(W[i : j + 1], vlim))
+        fail = _first_failure(checker, vs, resolution)
+        if fail is None:
+            done.append((i, j))
+            continue
+        inner = np.arange(1, j - i)
+        k = i + int(inner[np.argmin(np.abs(vs.knots[inner] - fail))])
+        todo += [(i, k), (k, j)]
+    return sorted(done)
+
+
+def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_duration,
+             effort_on: bool, stop: MotionEnergy | None) -> MotionEnergy:
+    vlim, _ = _limits(drive)
+    if checker is not None and stop is not None and "collision" in stop.reason:
+        parts = [(0, W.shape[0] - 1)]  # the polyline itself collides: nothing to certify
+    else:
+        parts = _certified_pieces(W, checker, options.resolution, vlim)
+    energy = np.zeros(drive.nq)
+    durations, curve, reasons = [], [], []
+    err = vel = eff = 0.0
+    for i, j in parts:
+        share = None
+        if max_duration is not None:  # each piece gets its share of the budget
+            share = max_duration * (j - i) / (W.shape[0] - 1)
+        vs, T, row, cv = _piece(drive, W[i : j + 1], dt, options, share, effort_on)
+        if row is None:
+            reasons.append(f"no duration within max_duration (the fastest piece {i}–{j} "
+                           f"needs {T:.3f} s)")
+            durations.append(T)
+            continue
+        if not row["ok"]:
+            reasons.append(f"piece {i}–{j}: no feasible duration (effort {row['effort']:.3g}×, "
+                           f"end error {row['end_error']:.3g} rad)")
+        energy += row["energy"]
+        durations.append(T)
+        err, vel, eff = max(err, row["end_error"]), max(vel, row["velocity"]), max(
+            eff, row["effort"])
+        if len(parts) == 1:
+            curve = cv
+    if checker is not None and stop is not None and "collision" in stop.reason:
+        reasons.append(stop.reason)
+    stops = len(parts) - 1
+    return MotionEnergy("nonstop", W, energy, float(energy.sum()), float(np.sum(durations)),
+                        err, vel, eff, not reasons, stops, parts, np.asarray(durations),
+                        "; ".join(reasons), duration_curve=curve)
+
+
+# ----------------------------------------------------------------------------- public
+def trajectory_energy(
+    drive: Drive,
+    waypoints: Any,
+    execution: str = "auto",
+    *,
+    dt: float | None = None,
+    options: Any = None,
+    checker: Any = None,
+    max_duration: float | None = None,
+) -> MotionEnergy:
+    """E⁺ (J) of the arm running through ``waypoints`` ((m+1, nq) rad; docs/design.md §9a).
+
+    ``execution``: "stop" (rest-to-rest quintic edges timed by the roadmap rule of
+    ``options``, a :class:`~mpd_pin.planning.roadmap.RoadmapOptions`; the roadmap's own
+    edge energies), "nonstop" (one quintic spline in time through the via points, its
+    duration (s) chosen for the least E⁺ within the velocity limits and ``max_duration``),
+    or "auto" (both; the cheaper feasible one, the other in ``.alternative``). ``dt``: RK4
+    step (s; default ``options.dt``). With a collision ``checker`` the motion is certified
+    free (straight edges for stop; the spline's curve for non-stop, which keeps a stop
+    where its curve is not free). ValueError for bad waypoints or an unknown execution.
+    """
+    from ..planning.roadmap import RoadmapOptions
+
+    if execution not in EXECUTIONS:
+        raise ValueError(f"execution must be one of {', '.join(EXECUTIONS)}, got {execution!r}")
+    options = options or RoadmapOptions()
+    dt = float(options.dt if dt is None else dt)
+    if max_duration is not None and not (math.isfinite(max_duration) and max_duration > 0):
+        raise ValueError(f"max_duration must be a number > 0 (s), got {max_duration!r}")
+    W = check_waypoints(drive, waypoints)
+    effort_on = bool(options.effort_limits)
+    stop = _stop(drive, W, dt, options, checker, effort_on)
+    if max_duration is not None and stop.duration > max_duration + 1e-9:
+        stop.feasible = False
+        stop.reason = "; ".join(filter(None, [stop.reason, f"takes {stop.duration:.3f} s > "
+                                              f"max_duration {max_duration:g} s"]))
+    if execution == "stop":
+        stop.energy_by_execution = {"stop": _feasible_energy(stop)}
+        return stop
+    non = _nonstop(drive, W, dt, options, checker, max_duration, effort_on, stop)
+    by = {"stop": _feasible_energy(stop), "nonstop": _feasible_energy(non)}
+    stop.energy_by_execution = non.energy_by_execution = by
+    if execution == "nonstop":
+        non.alternative = stop
+        return non
+    best, other = (non, stop) if _better(non, stop) else (stop, non)
+    best.alternative = other
+    return best
+
+
+def _feasible_energy(m: MotionEnergy) -> float | None:
+    return m.total_energy if m.feasible else None
+
+
+def _better(a: MotionEnergy, b: MotionEnergy) -> bool:
+    """Whether ``a`` is preferred: feasible first, then less energy."""
+    if a.feasible != b.feasible:
+        return a.feasible
+    return a.total_energy < b.total_energy

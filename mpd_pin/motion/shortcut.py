@@ -1,0 +1,158 @@
+"""Energy-aware shortcutting of a joint-space path (docs/design.md §9e).
+
+Energy is not monotone in length, so a shortcut is kept only when the simulated energy
+drops, never because the path got shorter. One round:
+
+1. densify the path: its waypoints plus ``interior`` evenly spaced points inside every
+   segment (so shortcuts may start and end inside edges, like OMPL's partial shortcuts);
+2. every pair (i < j) of these points is a candidate straight edge; the certified check
+   (:meth:`~mpd_pin.collision.CollisionChecker.edges_free`) runs on all of them in one
+   batch — a sub-segment of a certified segment is certified, so consecutive points need
+   no check;
+3. the free pairs are simulated in one batch, rest to rest with the roadmap's timing
+   (:func:`~mpd_pin.dynamics.simulate.edge_outcomes`), and refused when they miss the effort
+   limits or the arrival tolerance, exactly as roadmap edges are;
+4. a dynamic programme over the ordered points keeps the cheapest subsequence from the
+   first point to the last: E*(j) = min_{i<j} E*(i) + E(i → j).
+
+Rounds repeat on the result until the energy stops falling by more than ``tol`` (relative).
+Every edge of the result has passed the certified check and has its own simulated energy;
+the stop-and-go energy of the result is the DP's value, exactly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..dynamics.motor import Drive
+from ..dynamics.simulate import edge_outcomes
+
+__all__ = ["ShortcutResult", "densify", "shortcut_path"]
+
+
+@dataclass
+class ShortcutResult:
+    """The shortcut path (waypoints (m+1, nq) rad), its stop-and-go E⁺ (J) per joint,
+    the E⁺ of the path it started from (J), the rounds run, the pairs certified and the
+    edges simulated."""
+
+    waypoints: np.ndarray
+    energy_per_joint: np.ndarray
+    initial_energy: float
+    rounds: int
+    pairs_checked: int
+    edges_simulated: int
+
+    @property
+    def total_energy(self) -> float:
+        return float(self.energy_per_joint.sum())
+
+
+def densify(W: np.ndarray, interior: int) -> tuple[np.ndarray, np.ndarray]:
+    """The waypoints with ``interior`` evenly spaced points inside each segment, and the
+    index of the segment each point lies on (its start waypoint)."""
+    m = W.shape[0] - 1
+    f = np.arange(interior + 1) / (interior + 1)
+    pts = W[:-1, None, :] + f[None, :, None] * (W[1:] - W[:-1])[:, None, :]
+    pts = pts.reshape(-1, W.shape[1])
+    seg = np.repeat(np.arange(m), interior + 1)
+    return np.vstack([pts, W[-1:]]), np.append(seg, m)
+
+
+def _edge_costs(drive: Drive, P: np.ndarray, I: np.ndarray, J: np.ndarray, options, dt: float,
+                effort_on: bool, memo: dict | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+    """E⁺ per joint (K, nq) of the straight edges P[I] → P[J], whether each is feasible by
+    the roadmap's rules (docs/design.md §4e), and how many were simulated (the others come
+    from ``memo``, keyed by the endpoints' bytes)."""
+    from ..planning.roadmap import feasibility
+
+    Q0, Q1 = P[I], P[J]
+    memo = {} if memo is None else memo
+    keys = [a.tobytes() + b.tobytes() for a, b in zip(Q0, Q1, strict=True)]
+    new = np.array([k not in memo for k in keys], dtype=bool)
+    if new.any():
+        T, _ = options.timing(Q0[new], Q1[new], drive.arm.model.velocityLimit)
+        out = edge_outcomes(drive, Q0[new], Q1[new], T, dt)
+        over, missed = feasibility(out, options, drive.arm.model)
+        ok = ~missed & (~over if effort_on else True)
+        for r, k in enumerate(np.flatnonzero(new)):
+            memo[keys[k]] = (np.asarray(out.energy[r]), bool(ok[r]))
+    E = np.array([memo[k][0] for k in keys]).reshape(len(keys), P.shape[1])
+    ok = np.array([memo[k][1] for k in keys], dtype=bool)
+    return E, ok, int(new.sum())
+
+
+def _dp(n: int, I: np.ndarray, J: np.ndarray, cost: np.ndarray) -> list[int]:
+    """Cheapest increasing index sequence 0 → n−1 over the edges (I[e] < J[e], cost[e])."""
+    best = np.full(n, np.inf)
+    best[0] = 0.0
+    prev = np.full(n, -1)
+    order = np.lexsort((I, J))  # by end point, so every E*(i) is final before use
+    for e in order:
+        i, j = int(I[e]), int(J[e])
+        c = best[i] + cost[e]
+        if c < best[j]:
+            best[j], prev[j] = c, i
+    if not np.isfinite(best[-1]):
+        raise ValueError("no feasible sequence through the path's own segments")
+    seq = [n - 1]
+    while seq[-1] != 0:
+        seq.append(int(prev[seq[-1]]))
+    return seq[::-1]
+
+
+def shortcut_path(
+    drive: Drive,
+    waypoints: np.ndarray,
+    checker,
+    options,
+    *,
+    dt: float | None = None,
+    interior: int = 3,
+    max_rounds: int = 4,
+    tol: float = 1e-3,
+    memo: dict | None = None,
+) -> ShortcutResult:
+    """Shorten ``waypoints`` (a certified-free path, (m+1, nq) rad) for stop-and-go E⁺ by
+    the rounds of the module docstring; ``options``: the roadmap's
+    :class:`~mpd_pin.planning.roadmap.RoadmapOptions` (timing, limits, resolution).
+    ``memo`` (a dict) keeps simulated edges across rounds and calls."""
+    dt = float(options.dt if dt is None else dt)
+    effort_on = bool(options.effort_limits)
+    memo = {} if memo is None else memo
+    W = np.asarray(waypoints, dtype=float)
+    current = None
+    initial = None
+    checked = simulated = rounds = 0
+    for _ in range(max_rounds):
+        P, _ = densify(W, interior)
+        n = P.shape[0]
+        I, J = np.triu_indices(n, 1)
+        consecutive = J == I + 1
+        free = np.ones(I.size, dtype=bool)
+        test = ~consecutive
+        if test.any():
+            free[test] = checker.edges_free(P[I[test]], P[J[test]], options.resolution)
+            checked += int(test.sum())
+        I, J = I[free], J[free]
+        E, ok, fresh = _edge_costs(drive, P, I, J, options, dt, effort_on, memo)
+        simulated += fresh
+        cost = np.where(ok, E.sum(axis=1), np.inf)
+        if initial is None:  # the path as given, densified: its own segments' energies
+            whole = _edge_costs(drive, W, np.arange(W.shape[0] - 1), np.arange(1, W.shape[0]),
+                                options, dt, effort_on, memo)
+            initial = float(np.where(whole[1], whole[0].sum(axis=1), np.inf).sum())
+            current = (W, whole[0].sum(axis=0)) if whole[1].all() else None
+        seq = _dp(n, I, J, cost)
+        idx = {(int(i), int(j)): e for e, (i, j) in enumerate(zip(I, J, strict=True))}
+        energy = sum(E[idx[(a, b)]] for a, b in zip(seq[:-1], seq[1:], strict=True))
+        rounds += 1
+        improved = current is None or energy.sum() < current[1].sum() * (1.0 - tol)
+        if improved:
+            current = (P[seq], energy)
+            W = P[seq]
+        if not improved or len(seq) == 2:
+            break
+    return ShortcutResult(current[0], current[1], initial, rounds, checked, simulated)

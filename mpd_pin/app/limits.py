@@ -100,6 +100,7 @@ BOUNDS: dict[str, Bound] = {
     # [limits] table: joint velocity and effort limits (§7b); prismatic: m/s and N
     "velocity": _b(0.0, 1e3, "rad/s", "the joint velocity limit range", lo_open=True),
     "effort": _b(0.0, 1e5, "N·m", "the joint effort limit range", lo_open=True),
+    "max_duration": _b(0.0, 3600.0, "s", "the motion duration range", lo_open=True),
     "hazard_penalty": _b(1.0, 1e12, "", "the penalty range", allow_inf=True,
                          note="or inf: edges through a hazard removed"),
     # dynamic2link (§6)

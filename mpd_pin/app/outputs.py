@@ -57,6 +57,7 @@ import numpy as np
 from ..dynamics.current import current_model
 from ..dynamics.motor import PAPER_MOTOR, DCMotor
 from ..planning.roadmap import Roadmap
+from .motion_step import RunMotion, roadmap_path_record
 from .plan import PlanResult, Setup, path_length
 from .results import to_jsonable, write_json
 from .scenario import EnergyScenario
@@ -147,10 +148,14 @@ def write_plots(
     plan: PlanResult,
     check: Verification,
     shortest: tuple[PlanResult, Verification] | None = None,
+    motion: RunMotion | None = None,
 ) -> None:
     """``path.png``, ``joint_angles.png``, ``energy.png`` (paper 000 Figs. 12–17); with
     ``shortest`` (its plan and re-simulation) the path figure overlays the shortest
-    joint-space path and the energy figure shows both cumulative totals."""
+    joint-space path and the energy figure shows both cumulative totals. ``check`` holds
+    the series of what the arm runs; with a refined ``motion`` (docs/design.md §9f) the
+    path figure shows its waypoints over the roadmap path, and ``energy_duration.png``
+    its energy against duration."""
     import sys
 
     import matplotlib
@@ -159,7 +164,13 @@ def write_plots(
         matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    from ..viz.plots import Detection, plot_arm_path, plot_cumulative_energy, plot_joint_angles
+    from ..viz.plots import (
+        Detection,
+        plot_arm_path,
+        plot_cumulative_energy,
+        plot_energy_duration,
+        plot_joint_angles,
+    )
 
     roadmap, series, path = setup.roadmap, check.series, plan.path
     t_nodes = series["node_times"]  # the arm is at path[step] at t_nodes[step]
@@ -176,16 +187,24 @@ def write_plots(
         label = f"{SHORTEST_LABEL} ({float(sp.energy.sum()):.4g} J)"
         others[label] = roadmap.nodes[sp.path]
         compare = (sc.series["t"], sc.series["energy_t"].sum(axis=1), SHORTEST_LABEL)
+    Q_nodes = roadmap.nodes[path]
+    title = f"{scn.name}: {float(plan.energy.sum()):.4g} J, {len(path)} nodes"
+    if motion is not None and motion.refined is not None:
+        Q_nodes = motion.energy.waypoints
+        others[f"roadmap path (MPD* Lite, {float(plan.energy.sum()):.4g} J)"] = (
+            roadmap.nodes[path])
+        title = (f"{scn.name}: {motion.energy.total_energy:.4g} J {motion.energy.execution}, "
+                 f"{len(Q_nodes)} waypoints")
     figs = {
         "path.png": plot_arm_path(
             scn.arm,
             setup.world,
-            roadmap.nodes[path],
+            Q_nodes,
             Q_motion=series["q"],
             other_paths=others,
             node_times=t_nodes,
             detections=detections,
-            title=f"{scn.name}: {float(plan.energy.sum()):.4g} J, {len(path)} nodes",
+            title=title,
         ),
         "joint_angles.png": plot_joint_angles(
             series["t"], series["q"], names, node_times=series["node_times"]
@@ -194,9 +213,26 @@ def write_plots(
             series["t"], series["energy_t"], names, compare=compare
         ),
     }
+    curve = _duration_curve(motion)
+    if curve is not None:
+        figs["energy_duration.png"] = plot_energy_duration(*curve, title=scn.name)
     for fname, fig in figs.items():
         fig.savefig(out_dir / fname, dpi=110)
         plt.close(fig)
+
+
+def _duration_curve(motion: RunMotion | None):
+    """(non-stop curve [(T, E)], stop-and-go point (T, E) or None, chosen (T, E)) of a
+    refined motion whose single non-stop piece was searched; else None."""
+    if motion is None or motion.refined is None:
+        return None
+    m = motion.energy
+    non = m if m.execution == "nonstop" else m.alternative
+    if non is None or not non.duration_curve:
+        return None
+    stop = m if m.execution == "stop" else m.alternative
+    stop_pt = (stop.duration, stop.total_energy) if stop is not None and stop.feasible else None
+    return non.duration_curve, stop_pt, (m.duration, m.total_energy)
 
 
 def write_replay_html(
@@ -206,6 +242,7 @@ def write_replay_html(
     plan: PlanResult,
     check: Verification,
     shortest: PlanResult | None = None,
+    motion: RunMotion | None = None,
 ) -> dict[str, Any]:
     """``replay.html``: about :data:`REPLAY_SAMPLES` samples of the simulated motion, hidden
     obstacles switched on when they were revealed, end-effector traces of the plans not
@@ -233,6 +270,10 @@ def write_replay_html(
     if shortest is not None:
         lines[f"end effector ({SHORTEST_LABEL})"] = ee_trace(
             scn.arm, straight_line_configurations(roadmap, shortest.path, resolution, scn.arm)
+        )
+    if motion is not None and motion.refined is not None:
+        lines["end effector (roadmap path)"] = ee_trace(
+            scn.arm, straight_line_configurations(roadmap, plan.path, resolution, scn.arm)
         )
     lines["end effector (travelled)"] = ee_trace(scn.arm, q_rep)  # drawn last: on top
     write_replay(
@@ -305,9 +346,12 @@ def result_record(
     clock: PhaseClock,
     comparison: dict[str, Any] | None = None,
     cache: dict[str, Any] | None = None,
+    motion: RunMotion | None = None,
 ) -> dict[str, Any]:
     """The content of result.json (see the module docstring), not yet encoded;
-    ``comparison`` from :func:`comparison_record`, ``cache`` from :func:`cache_record`."""
+    ``comparison`` from :func:`comparison_record`, ``cache`` from :func:`cache_record`;
+    with ``motion`` (docs/design.md §9f) the totals are the returned motion's and
+    ``roadmap_path`` holds the MPD* Lite path behind it."""
     motor = scn.motor
     record: dict[str, Any] = {
         "kind": scn.kind,
@@ -341,6 +385,11 @@ def result_record(
     }
     record["energy_per_joint"] = plan.energy
     record["total_energy"] = float(plan.energy.sum())
+    if motion is not None:
+        record["roadmap_path"] = roadmap_path_record(setup, plan, scn.arm)
+        record["motion"] = motion.record()
+        record["energy_per_joint"] = motion.energy.energy_per_joint
+        record["total_energy"] = float(motion.energy.total_energy)
     if comparison is not None:
         record["comparison"] = comparison
     record["verification"] = check.to_dict()
@@ -411,6 +460,23 @@ def comparison_record(
             ),
         }
     return out
+
+
+def add_motion_comparison(comparison: dict[str, Any], motion: RunMotion) -> None:
+    """Add the shortest path refined and priced as the motion was (docs/design.md §9f) to
+    ``comparison``: ``refined_shortest_path`` and ``motion_energy_saved_percent``."""
+    if motion.shortest is None:
+        return
+    sm = motion.shortest
+    comparison["refined_shortest_path"] = {
+        "execution": sm.execution,
+        "waypoints": int(sm.waypoints.shape[0]),
+        "duration": float(sm.duration),
+        "energy_per_joint": sm.energy_per_joint,
+        "total_energy": float(sm.total_energy),
+    }
+    comparison["motion_energy_saved_percent"] = _saved_percent(
+        float(motion.energy.total_energy), float(sm.total_energy))
 
 
 def write_result(out_dir: Path, record: dict[str, Any]) -> dict[str, Any]:

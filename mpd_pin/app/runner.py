@@ -9,10 +9,14 @@
   :func:`simulate_edge` (``verification``);
 * compare (docs/design.md §7c) — the shortest joint-space path planned the same way on
   distance costs, and re-simulated (``comparison``);
-* write (:mod:`mpd_pin.app.outputs`, :mod:`mpd_pin.app.trajectory`) — ``trajectory.csv``
-  and ``trajectory.json`` (``trajectory``), ``path.png``, ``joint_angles.png``,
-  ``energy.png`` (``plots``), ``replay.html`` (``replay``) and ``result.json`` (its layout
-  is described in :mod:`mpd_pin.app.outputs`).
+* motion (docs/design.md §9f, :mod:`mpd_pin.app.motion_step`) — the roadmap path (and the
+  shortest) refined and priced under ``[motion]``: the motion the run returns
+  (``refinement``);
+* write (:mod:`mpd_pin.app.outputs`, :mod:`mpd_pin.app.trajectory`) — the motion's
+  ``trajectory.csv`` and ``trajectory.json`` (``trajectory``), ``path.png``,
+  ``joint_angles.png``, ``energy.png``, ``energy_duration.png`` (``plots``),
+  ``replay.html`` (``replay``) and ``result.json`` (its layout is described in
+  :mod:`mpd_pin.app.outputs`).
 
 The output folder is created and probed for writing first: one that cannot be written is
 a :class:`~mpd_pin.app.config.ConfigError` before any work, and a folder this run created
@@ -28,7 +32,9 @@ from typing import Any
 
 from ..dynamics.remote import Compute, open_compute
 from .config import ConfigError
+from .motion_step import make_motion
 from .outputs import (
+    add_motion_comparison,
     cache_record,
     comparison_record,
     result_record,
@@ -120,24 +126,29 @@ def _run(scn: EnergyScenario, out_dir: Path, show_progress: bool, cache: Path | 
         short = plan_shortest(scn, setup)
         short_check = verify_path(setup.drive, setup.roadmap, short.path, dt, short.energy)
         comparison = comparison_record(scn, setup, plan, check, short, short_check)
+    with clock.phase("refinement"):
+        motion = make_motion(scn, setup, plan, check, short)
+        moved = motion.check()
+        add_motion_comparison(comparison, motion)
     with clock.phase("trajectory"):
         names, kt = scn.arm.joint_names, setup.drive.torque_per_amp
-        write_trajectory_csv(out_dir / "trajectory.csv", names, check.series, kt)
-        traj = joint_trajectory(names, check.series, kt, trajectory_rate)
+        write_trajectory_csv(out_dir / "trajectory.csv", names, moved.series, kt)
+        traj = joint_trajectory(names, moved.series, kt, trajectory_rate)
         write_trajectory_json(out_dir / "trajectory.json", traj)
     with clock.phase("plots"):
-        write_plots(out_dir, scn, setup, plan, check, (short, short_check))
+        write_plots(out_dir, scn, setup, plan, moved, (short, short_check), motion=motion)
     replay_record = None
     if replay:
         with clock.phase("replay"):
-            replay_record = write_replay_html(out_dir, scn, setup, plan, check, short)
+            replay_record = write_replay_html(out_dir, scn, setup, plan, moved, short,
+                                              motion=motion)
     clock.finish()
     record = result_record(scn, setup, plan, check, replay_record, clock, comparison,
-                           cache=cache_record(cache, cache_used))
+                           cache=cache_record(cache, cache_used), motion=motion)
     record["trajectory"] = {
         "csv": "trajectory.csv",
         "json": "trajectory.json",
-        "samples": len(check.series["t"]),
+        "samples": len(moved.series["t"]),
         "step": dt,
         "json_rate_hz": float(trajectory_rate),
         "json_points": len(traj["points"]),

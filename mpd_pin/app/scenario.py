@@ -49,6 +49,11 @@ A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
     [limits]                   # fill/override URDF joint limits (rad/s, N·m), by joint name
     joint2 = { velocity = 2.0, effort = 30.0 }
 
+    [motion]                   # the returned motion (docs/design.md §9)
+    execution = "auto"         # or "stop" (rest at every waypoint) / "nonstop"
+    refine = true              # shortcut the roadmap paths where the energy drops
+    max_duration = 20.0        # s; longest motion allowed (default: no limit)
+
     [task]
     start = [0.6, 0.3, 0.2]    # rad; or start_ee = [x, z] (planar) / [x, y, z], solved by IK
     goal = [2.4, -0.3, -0.2]
@@ -76,6 +81,7 @@ import numpy as np
 from ..arm.model import Arm
 from ..dynamics.motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
 from ..dynamics.sizing import check_holding, sized_motors
+from ..motion.refine import MotionOptions
 from ..planning.roadmap import RoadmapOptions
 from ..search.registry import DEFAULT_PLANNER, PLANNERS
 from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
@@ -132,6 +138,8 @@ class EnergyScenario:
     extra: dict[str, Any] = field(default_factory=dict)
     #: "lazy" (simulate only the edges the search needs) or "eager" (docs/design.md §4g)
     evaluation: str = "lazy"
+    #: the returned motion: execution, refinement, duration limit (docs/design.md §9)
+    motion: MotionOptions = field(default_factory=MotionOptions)
 
     def drive(self) -> Drive:
         return Drive(self.arm, self.motor, self.kp, self.kd, feedforward=self.feedforward)
@@ -493,6 +501,17 @@ def _compute(t: Table) -> str | None:
     return None if kind == "threads" else text
 
 
+def _motion(t: Table) -> MotionOptions:
+    """``[motion]``: execution, refine, max_duration (docs/design.md §9)."""
+    from ..motion.energy import EXECUTIONS
+
+    execution = t.string("execution", "auto", choices=EXECUTIONS)
+    refine = t.boolean("refine", True)
+    max_duration = t.number("max_duration", None, bound=BOUNDS["max_duration"])
+    t.done()
+    return MotionOptions(execution=execution, refine=refine, max_duration=max_duration)
+
+
 def parse_energy_scenario(
     data: dict[str, Any], *, source: str = "", base_dir: Path | None = None, seed: int | None = None
 ) -> EnergyScenario:
@@ -553,6 +572,7 @@ def parse_energy_scenario(
                           "start and goal are given as joint angles")
     task.done()
     scheduler = _compute(top.table("compute"))
+    motion = _motion(top.table("motion"))
     top.done()
     holding = Drive(arm, motor, kp, kd, feedforward=ff)  # a motor too weak to hold (§3g)
     for what, q in (("task.start", start), ("task.goal", goal)):
@@ -578,4 +598,5 @@ def parse_energy_scenario(
         source=source,
         evaluation=evaluation,
         scheduler=scheduler,
+        motion=motion,
     )

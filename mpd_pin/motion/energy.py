@@ -37,7 +37,7 @@ __all__ = ["EXECUTIONS", "MotionEnergy", "trajectory_energy", "check_waypoints",
 EXECUTIONS = ("auto", "stop", "nonstop")
 
 #: Duration search of a non-stop piece: candidates in the first batch and in the refinement.
-FIRST_GRID, SECOND_GRID = 6, 4
+FIRST_GRID, SECOND_GRID = 5, 2
 
 #: The longest non-stop duration tried, as a multiple of the fastest one allowed.
 STRETCH = 3.0
@@ -205,14 +205,16 @@ def _snap(T: np.ndarray | float, dt: float) -> np.ndarray:
 
 
 def _piece(drive: Drive, W: np.ndarray, dt: float, options, t_max: float | None,
-           effort_on: bool):
+           effort_on: bool, t_budget: float = 0.0):
     """Best duration of one non-stop piece through ``W``: (spline, duration, outcome row
-    dict, curve); outcome None when no duration is feasible."""
+    dict, curve); outcome None when no duration is feasible. Durations from the fastest
+    the velocity limits allow to the longer of :data:`STRETCH` times that and ``t_budget``
+    (s, the stop-and-go duration of the same waypoints), capped by ``t_max``."""
     vlim, elim = _limits(drive)
     vs = via_spline(W, unit_knots(W, vlim))
     ratio = vs.peak_speed_ratio(vlim) * 1.002 if options.velocity_limits else 0.0
     t_lo = float(_snap(max(ratio * vs.unit_duration, options.min_duration), dt))
-    t_hi = max(STRETCH * t_lo, t_lo + 4 * dt)
+    t_hi = max(STRETCH * t_lo, t_lo + 4 * dt, t_budget)
     if t_max is not None:
         t_hi = min(t_hi, t_max)
         if t_hi < t_lo - 1e-12:
@@ -332,7 +334,8 @@ def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_durat
         share = None
         if max_duration is not None:  # each piece gets its share of the budget
             share = max_duration * (j - i) / (W.shape[0] - 1)
-        vs, T, row, cv = _piece(drive, W[i : j + 1], dt, options, share, effort_on)
+        budget = 0.0 if stop is None else float(np.sum(stop.piece_durations[i:j]))
+        vs, T, row, cv = _piece(drive, W[i : j + 1], dt, options, share, effort_on, budget)
         if row is None:
             reasons.append(f"no duration within max_duration (the fastest piece {i}–{j} "
                            f"needs {T:.3f} s)")

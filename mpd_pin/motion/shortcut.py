@@ -13,7 +13,10 @@ drops, never because the path got shorter. One round:
    (:func:`~mpd_pin.dynamics.simulate.edge_outcomes`), and refused when they miss the effort
    limits or the arrival tolerance, exactly as roadmap edges are;
 4. a dynamic programme over the ordered points keeps the cheapest subsequence from the
-   first point to the last: E*(j) = min_{i<j} E*(i) + E(i → j).
+   first point to the last with at most as many edges as the path had:
+   E*(c, j) = min_{i<j} E*(c−1, i) + E(i → j) — without the cap the cheapest answer under
+   a fixed edge duration is many tiny edges, a slower motion with more stops (measured on
+   quickstart: 65 waypoints, 57 s, against the roadmap path's 10 and 9 s).
 
 Rounds repeat on the result until the energy stops falling by more than ``tol`` (relative).
 Every edge of the result has passed the certified check and has its own simulated energy;
@@ -84,22 +87,30 @@ def _edge_costs(drive: Drive, P: np.ndarray, I: np.ndarray, J: np.ndarray, optio
     return E, ok, int(new.sum())
 
 
-def _dp(n: int, I: np.ndarray, J: np.ndarray, cost: np.ndarray) -> list[int]:
-    """Cheapest increasing index sequence 0 → n−1 over the edges (I[e] < J[e], cost[e])."""
-    best = np.full(n, np.inf)
-    best[0] = 0.0
-    prev = np.full(n, -1)
-    order = np.lexsort((I, J))  # by end point, so every E*(i) is final before use
-    for e in order:
-        i, j = int(I[e]), int(J[e])
-        c = best[i] + cost[e]
-        if c < best[j]:
-            best[j], prev[j] = c, i
-    if not np.isfinite(best[-1]):
+def _dp(n: int, I: np.ndarray, J: np.ndarray, cost: np.ndarray, max_edges: int) -> list[int]:
+    """Cheapest increasing index sequence 0 → n−1 of at most ``max_edges`` edges over the
+    edges (I[e] < J[e], cost[e]). The cap keeps a shortcut from buying energy with extra
+    stops: under a fixed edge duration, more edges would mean a slower motion."""
+    best = np.full((max_edges + 1, n), np.inf)
+    best[0, 0] = 0.0
+    prev = np.full((max_edges + 1, n), -1)
+    fin = np.isfinite(cost)
+    I, J, cost = I[fin], J[fin], cost[fin]
+    for c in range(1, max_edges + 1):
+        cand = best[c - 1, I] + cost
+        order = np.lexsort((cand, J))  # per end point, cheapest first
+        first = np.ones(order.size, dtype=bool)
+        first[1:] = J[order][1:] != J[order][:-1]
+        e = order[first]
+        best[c, J[e]] = cand[e]
+        prev[c, J[e]] = I[e]
+    c = int(np.argmin(best[:, -1]))
+    if not np.isfinite(best[c, -1]):
         raise ValueError("no feasible sequence through the path's own segments")
     seq = [n - 1]
-    while seq[-1] != 0:
-        seq.append(int(prev[seq[-1]]))
+    while c > 0:
+        seq.append(int(prev[c, seq[-1]]))
+        c -= 1
     return seq[::-1]
 
 
@@ -123,6 +134,7 @@ def shortcut_path(
     effort_on = bool(options.effort_limits)
     memo = {} if memo is None else memo
     W = np.asarray(waypoints, dtype=float)
+    max_edges = W.shape[0] - 1  # never more stops than the path had
     current = None
     initial = None
     checked = simulated = rounds = 0
@@ -145,7 +157,7 @@ def shortcut_path(
                                 options, dt, effort_on, memo)
             initial = float(np.where(whole[1], whole[0].sum(axis=1), np.inf).sum())
             current = (W, whole[0].sum(axis=0)) if whole[1].all() else None
-        seq = _dp(n, I, J, cost)
+        seq = _dp(n, I, J, cost, max_edges)
         idx = {(int(i), int(j)): e for e, (i, j) in enumerate(zip(I, J, strict=True))}
         energy = sum(E[idx[(a, b)]] for a, b in zip(seq[:-1], seq[1:], strict=True))
         rounds += 1

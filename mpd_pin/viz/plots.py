@@ -35,6 +35,7 @@ __all__ = [
     "draw_clearance_bands_xz",
     "plot_joint_angles",
     "plot_cumulative_energy",
+    "plot_energy_duration",
 ]
 
 OBSTACLE_COLOR = "#6c757d"
@@ -528,5 +529,35 @@ def plot_cumulative_energy(
     ax.set_ylabel("energy drawn E⁺ (J)")
     ax.legend(fontsize="small", ncol=2)
     ax.set_title(title or "cumulative electrical energy per joint")
+    fig.tight_layout()
+    return fig
+
+
+def plot_energy_duration(
+    curve: Sequence[tuple[float, float]],
+    stop: tuple[float, float] | None,
+    chosen: tuple[float, float],
+    *,
+    title: str = "",
+):
+    """E⁺ (J) of the non-stop motion against its total duration (s), as the duration
+    search simulated it (docs/design.md §9c), with the stop-and-go motion of the same
+    waypoints (roadmap timing) and the motion returned marked."""
+    import matplotlib.pyplot as plt
+
+    T = np.array([c[0] for c in curve])
+    E = np.array([c[1] for c in curve])
+    order = np.argsort(T)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(T[order], E[order], "o-", color="#1d3557", label="non-stop, simulated durations")
+    if stop is not None:
+        ax.plot([stop[0]], [stop[1]], "s", color="#e76f51", ms=9,
+                label=f"stop-and-go (roadmap timing): {stop[1]:.4g} J, {stop[0]:.3g} s")
+    ax.plot([chosen[0]], [chosen[1]], "*", color="#2a9d8f", ms=16,
+            label=f"returned: {chosen[1]:.4g} J, {chosen[0]:.3g} s")
+    ax.set_xlabel("total duration (s)")
+    ax.set_ylabel("energy drawn E⁺ (J)")
+    ax.legend(fontsize="small")
+    ax.set_title(f"{title}: energy against duration" if title else "energy against duration")
     fig.tight_layout()
     return fig

@@ -1,0 +1,151 @@
+"""The motion step of a run: from the roadmap path to what the arm runs (docs/design.md §9f).
+
+After the plan (:mod:`mpd_pin.app.plan`) and the shortest-path comparison,
+:func:`make_motion` builds the returned motion under the scenario's ``[motion]``:
+
+* ``refine = false`` with ``execution = "stop"`` (the paper's scenarios): the roadmap
+  path itself, stop-and-go, with the roadmap's own energies — nothing is simulated again,
+  so these energies are bit-identical to the roadmap optimum;
+* otherwise the candidates — the energy optimum and the shortest path (refine), or the
+  optimum alone (no refine) — go through
+  :func:`~mpd_pin.motion.refine.refine_candidates`; the comparison's shortest path is
+  refined and priced the same way;
+* hidden obstacles (execution with sensing and repair): the travelled roadmap path,
+  stop-and-go — the repairs happen at nodes, where the arm is at rest, and a shortcut
+  would need obstacles that are only sensed on the way (``note`` says so).
+
+With hazards of positive clearance, every new segment and curve is certified against
+the clearance bands too.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..motion.energy import MotionEnergy, check_waypoints
+from ..motion.refine import RefinedMotion, refine_candidates
+from ..motion.series import motion_series
+from .plan import PlanResult, Setup, path_length
+from .scenario import EnergyScenario
+from .verify import Verification
+
+__all__ = ["RunMotion", "make_motion", "roadmap_motion"]
+
+OPTIMUM, SHORTEST = "energy optimum", "shortest path"
+
+
+@dataclass
+class RunMotion:
+    """The returned motion, its time series (:func:`~mpd_pin.motion.series.motion_series`),
+    the refinement (None when the roadmap path is returned as it is), the shortest path
+    refined the same way (None likewise) and a note on how it was made."""
+
+    energy: MotionEnergy
+    series: dict[str, np.ndarray]
+    refined: RefinedMotion | None
+    shortest: MotionEnergy | None
+    note: str
+
+    def check(self) -> Verification:
+        """The motion as a :class:`~mpd_pin.app.verify.Verification` (for files and plots):
+        E⁺ per joint from its series and its difference from the priced energy."""
+        series = dict(self.series)
+        recomputed = series["energy_t"][-1]
+        ref = self.energy.energy_per_joint
+        diff = float(np.max(np.abs(recomputed - ref) / np.maximum(np.abs(ref), 1e-300)))
+        return Verification(series=series, energy_per_joint=recomputed,
+                            max_relative_difference=diff)
+
+    def record(self) -> dict[str, Any]:
+        """``motion`` of result.json (docs/design.md §9d)."""
+        m = self.energy
+        t, V, i = self.series["t"], self.series["V"], self.series["i"]
+        sampled = np.trapezoid(np.maximum(V * i, 0.0), t, axis=0) if len(t) > 1 else 0 * V[0]
+        total = float(m.total_energy)
+        out = {
+            **m.to_dict(),
+            "node_times": self.series["node_times"],
+            "trajectory_energy_per_joint": sampled,
+            "trajectory_relative_difference": (
+                abs(float(np.sum(sampled)) - total) / total if total > 0 else 0.0),
+            "note": self.note,
+        }
+        if self.refined is not None:
+            out["refinement"] = self.refined.record()
+        return out
+
+
+def roadmap_motion(drive, setup: Setup, plan: PlanResult, check: Verification) -> MotionEnergy:
+    """The roadmap path of ``plan`` as a stop-and-go :class:`MotionEnergy` with the
+    roadmap's own energies and durations (nothing simulated)."""
+    roadmap = setup.roadmap
+    path = list(plan.path)
+    ids = roadmap.edge_ids(path) if len(path) > 1 else np.zeros(0, dtype=np.int64)
+    W = roadmap.nodes[path]
+    if drive.arm.continuous_joints and len(path) > 1:
+        W = check_waypoints(drive, W)
+    T = np.asarray(roadmap.durations, float)[ids]
+    m = max(len(path) - 1, 0)
+    energy = np.asarray(plan.energy, dtype=float)
+    return MotionEnergy("stop", W, energy, float(energy.sum()), float(T.sum()), 0.0, 0.0, 0.0,
+                        True, max(m - 1, 0), [(k, k + 1) for k in range(m)], T,
+                        energy_by_execution={"stop": float(energy.sum())})
+
+
+def _checker(scn: EnergyScenario, setup: Setup):
+    """The checker new segments are certified with: the planning checker, enforcing the
+    hazards' clearance when any has one."""
+    if any(h.clearance > 0 for h in setup.world.hazards):
+        checker = setup.checker.copy()
+        checker.set_hazard_clearance(True)
+        return checker
+    return setup.checker
+
+
+def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Verification,
+                shortest: PlanResult | None) -> RunMotion:
+    """The returned motion of a run (module docstring)."""
+    opts = scn.motion
+    drive, roadmap = setup.drive, setup.roadmap
+    if plan.execution is not None or (not opts.refine and opts.execution == "stop") or len(
+            plan.path) < 2:
+        note = "the roadmap path, stop-and-go, with the roadmap's energies"
+        if plan.execution is not None and (opts.refine or opts.execution != "stop"):
+            note += (" (obstacles sensed on the way: the arm is at rest at each node where it "
+                     "may repair, so the travelled path is neither shortcut nor run non-stop)")
+        return RunMotion(roadmap_motion(drive, setup, plan, check), check.series, None, None,
+                         note)
+    checker = _checker(scn, setup)
+    cands = {OPTIMUM: roadmap.nodes[plan.path]}
+    if opts.refine and shortest is not None and list(shortest.path) != list(plan.path):
+        cands[SHORTEST] = roadmap.nodes[shortest.path]
+    refined = refine_candidates(drive, checker, scn.options, cands, opts)
+    short_motion = None
+    if shortest is not None:
+        short_motion = refined.by_name.get(SHORTEST)
+        if short_motion is None:
+            if list(shortest.path) == list(plan.path):
+                short_motion = refined.by_name[OPTIMUM]
+            else:
+                short_motion = refine_candidates(
+                    drive, checker, scn.options, {SHORTEST: roadmap.nodes[shortest.path]}, opts
+                ).motion
+    how = "shortcut where the energy drops, " if opts.refine else ""
+    note = (f"{how}{opts.execution} execution; from the {refined.candidate} "
+            f"({len(cands)} candidate{'s' if len(cands) > 1 else ''})")
+    series = motion_series(drive, refined.motion, scn.options.dt)
+    return RunMotion(refined.motion, series, refined, short_motion, note)
+
+
+def roadmap_path_record(setup: Setup, plan: PlanResult, arm) -> dict[str, Any]:
+    """``roadmap_path`` of result.json: the MPD* Lite path behind the motion."""
+    return {
+        "nodes": [int(n) for n in plan.path],
+        "configurations": setup.roadmap.nodes[plan.path],
+        "length_rad": path_length(setup.roadmap, plan.path, arm),
+        "energy_per_joint": plan.energy,
+        "total_energy": float(np.sum(plan.energy)),
+    }

@@ -1,0 +1,118 @@
+"""From roadmap paths to the returned motion: candidates, shortcuts, execution (docs/design.md §9f).
+
+The roadmap's energy optimum is optimal only among stop-and-go paths on its sampled
+graph. :func:`refine_candidates` takes several certified paths — the energy optimum, the
+shortest path, alternatives — shortens each where the simulated energy drops
+(:func:`~mpd_pin.motion.shortcut.shortcut_path`), prices each with the chosen execution
+(:func:`~mpd_pin.motion.energy.trajectory_energy`) and returns the cheapest feasible
+motion, with a record of every candidate.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..dynamics.motor import Drive
+from .energy import EXECUTIONS, MotionEnergy, trajectory_energy
+from .shortcut import shortcut_path
+
+__all__ = ["MotionOptions", "RefinedMotion", "refine_candidates"]
+
+
+@dataclass(frozen=True)
+class MotionOptions:
+    """How the returned motion is made (``[motion]`` of a scenario).
+
+    execution: "auto" (the cheaper feasible of stop-and-go and non-stop), "stop" or
+    "nonstop"; refine: shortcut the candidates where energy drops (False: the roadmap
+    path as it is); max_duration: the longest motion allowed (s; None: no limit);
+    interior: points inside each segment a shortcut may start or end at; max_rounds:
+    shortcut rounds per candidate.
+    """
+
+    execution: str = "auto"
+    refine: bool = True
+    max_duration: float | None = None
+    interior: int = 3
+    max_rounds: int = 2
+
+    def __post_init__(self) -> None:
+        if self.execution not in EXECUTIONS:
+            raise ValueError(f"execution must be one of {', '.join(EXECUTIONS)}, "
+                             f"got {self.execution!r}")
+        if self.max_duration is not None and not (
+            isinstance(self.max_duration, (int, float)) and math.isfinite(self.max_duration)
+            and self.max_duration > 0
+        ):
+            raise ValueError(f"max_duration must be a number > 0 (s), got {self.max_duration!r}")
+        if int(self.interior) != self.interior or self.interior < 0:
+            raise ValueError(f"interior must be a non-negative integer, got {self.interior!r}")
+        if int(self.max_rounds) != self.max_rounds or self.max_rounds < 1:
+            raise ValueError(f"max_rounds must be a positive integer, got {self.max_rounds!r}")
+
+
+@dataclass
+class RefinedMotion:
+    """The returned motion (``motion``), the name of the candidate it came from, one record
+    per candidate, and the CPU and wall seconds the refinement took."""
+
+    motion: MotionEnergy
+    candidate: str
+    candidates: list[dict[str, Any]] = field(default_factory=list)
+    seconds: float = 0.0
+    cpu_seconds: float = 0.0
+    by_name: dict[str, MotionEnergy] = field(default_factory=dict)
+
+    def record(self) -> dict[str, Any]:
+        """``motion.refinement`` of result.json."""
+        return {"candidate": self.candidate, "candidates": self.candidates,
+                "seconds": self.seconds, "cpu_seconds": self.cpu_seconds}
+
+
+def refine_candidates(
+    drive: Drive,
+    checker: Any,
+    options: Any,
+    candidates: dict[str, np.ndarray],
+    motion: MotionOptions | None = None,
+) -> RefinedMotion:
+    """The cheapest feasible motion over ``candidates`` (name → certified waypoints (m+1, nq)
+    rad, in order of preference on ties) under ``motion``; ``options``: the roadmap's
+    :class:`~mpd_pin.planning.roadmap.RoadmapOptions` (timing, limits, dt, resolution);
+    ``checker`` certifies every new segment and non-stop curve. ValueError when no
+    candidate gives a feasible motion (its reasons in the message)."""
+    motion = motion or MotionOptions()
+    w0, c0 = time.perf_counter(), time.process_time()
+    memo: dict = {}
+    records, by_name = [], {}
+    for name, W in candidates.items():
+        W = np.asarray(W, dtype=float)
+        rec: dict[str, Any] = {"name": name, "waypoints_in": int(W.shape[0])}
+        if motion.refine and W.shape[0] > 2:
+            sc = shortcut_path(drive, W, checker, options, interior=motion.interior,
+                               max_rounds=motion.max_rounds, memo=memo)
+            rec.update(stop_energy_in=sc.initial_energy, stop_energy_shortcut=sc.total_energy,
+                       shortcut_rounds=sc.rounds, pairs_checked=sc.pairs_checked,
+                       edges_simulated=sc.edges_simulated)
+            W = sc.waypoints
+        me = trajectory_energy(drive, W, motion.execution, options=options, checker=checker,
+                               max_duration=motion.max_duration)
+        rec.update(waypoints=int(me.waypoints.shape[0]), execution=me.execution,
+                   total_energy=me.total_energy, duration=me.duration, feasible=me.feasible,
+                   energy_by_execution=dict(me.energy_by_execution))
+        if not me.feasible:
+            rec["reason"] = me.reason
+        records.append(rec)
+        by_name[name] = me
+    feasible = [n for n, m in by_name.items() if m.feasible]
+    if not feasible:
+        why = "; ".join(f"{n}: {m.reason}" for n, m in by_name.items())
+        raise ValueError(f"no feasible motion among the candidates ({why})")
+    best = min(feasible, key=lambda n: by_name[n].total_energy)
+    return RefinedMotion(by_name[best], best, records, time.perf_counter() - w0,
+                         time.process_time() - c0, by_name)

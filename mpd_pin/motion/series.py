@@ -1,0 +1,81 @@
+"""The time series of a motion, for files, plots and replay (docs/design.md §9d).
+
+Both executions are re-simulated with the batched integrator recording every RK4 step
+(:func:`~mpd_pin.dynamics.tracking.integrate_tables`): the stop-and-go edges in one batch
+(rows never mix, so each equals :func:`~mpd_pin.dynamics.simulate.edge_outcomes` for that
+edge), each non-stop piece at its chosen duration. One time base:
+t = 0 at the start, each later piece's first sample dropped (the previous piece's end
+stands for it), as :func:`mpd_pin.app.verify.simulate_path` does for roadmap paths.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..dynamics.motor import Drive
+from ..dynamics.simulate import quintic, step_count
+from ..dynamics.tracking import _pool, integrate_tables
+from .energy import MotionEnergy, _simulate_nonstop
+from .spline import unit_knots, via_spline
+
+__all__ = ["motion_series"]
+
+
+def _stop_edges(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, dt: float):
+    """(t, q, v, i, V, energy_t, via times) of each rest-to-rest quintic edge, one batch."""
+    import os
+
+    from ..dynamics.simulate import _per_edge, _reference_table
+
+    threads = int(os.cpu_count() or 1)
+    N = np.array([step_count(float(x), dt) for x in T], dtype=np.int64)
+    half = np.minimum(np.arange(2 * int(N.max()) + 1)[:, None] / (2 * N)[None, :], 1.0)
+    s, sd, _, _ = (_per_edge(a) for a in quintic(half, T))
+    pool = _pool(drive, threads)
+    Wt, i0 = _reference_table(drive, Q0, Q1 - Q0, half, T, s, sd, pool, threads)
+    _, rec = integrate_tables(drive, Q0, Q1, Wt, i0, N, dt, threads, pool, record=True)
+    for k, n in enumerate(N.tolist()):
+        t = np.arange(n + 1) * dt
+        yield (t, rec.q[: n + 1, k], rec.v[: n + 1, k], rec.i[: n + 1, k], rec.V[: n + 1, k],
+               rec.energy_t[: n + 1, k], np.array([0.0, t[-1]]))
+
+
+def _pieces(drive: Drive, m: MotionEnergy, dt: float):
+    """(t, q, v, i, V, energy_t, via times) of each piece of ``m``, each from t = 0."""
+    W = m.waypoints
+    if m.execution == "stop":
+        P = np.asarray(m.pieces)
+        yield from _stop_edges(drive, W[P[:, 0]], W[P[:, 1]],
+                               np.asarray(m.piece_durations, float), dt)
+        return
+    vlim = np.asarray(drive.arm.model.velocityLimit, dtype=float)
+    vlim = np.where(np.isfinite(vlim) & (vlim > 0), vlim, 1.0)
+    for (a, b), T in zip(m.pieces, m.piece_durations, strict=True):
+        vs = via_spline(W[a : b + 1], unit_knots(W[a : b + 1], vlim))
+        _, rec = _simulate_nonstop(drive, vs, np.array([float(T)]), dt, record=True)
+        n = rec.q.shape[0]
+        t = np.arange(n) * dt
+        yield (t, rec.q[:, 0], rec.v[:, 0], rec.i[:, 0], rec.V[:, 0], rec.energy_t[:, 0],
+               vs.knots * (float(T) / vs.unit_duration))
+
+
+def motion_series(drive: Drive, m: MotionEnergy, dt: float) -> dict[str, np.ndarray]:
+    """t (s), q (rad), v (rad/s), i (A), V (V), energy_t (cumulative E⁺ per joint, J),
+    piece_energy (E⁺ per joint of each piece, J) and node_times (s, when the motion passes
+    each waypoint) of the motion ``m`` (RK4 step ``dt`` s)."""
+    cols: dict[str, list] = {k: [] for k in ("t", "q", "v", "i", "V", "energy_t")}
+    t0, e0 = 0.0, np.zeros(drive.nq)
+    node_times = [0.0]
+    per_piece = []
+    for k, (t, q, v, i, V, et, knots) in enumerate(_pieces(drive, m, dt)):
+        s = 0 if k == 0 else 1
+        for key, arr in zip(cols, (t0 + t, q, v, i, V, e0 + et), strict=True):
+            cols[key].append(arr[s:])
+        node_times.extend((t0 + knots[1:]).tolist())
+        per_piece.append(et[-1])
+        t0 += float(t[-1])
+        e0 = e0 + et[-1]
+    out = {k: np.concatenate(v) for k, v in cols.items()}
+    out["piece_energy"] = np.array(per_piece)
+    out["node_times"] = np.array(node_times)
+    return out

@@ -83,9 +83,16 @@ def _summary_energy(scn, result: dict[str, Any], out_dir: Path) -> str:
     if reused:  # an interrupted build resumed (§4h)
         roadmap += f", resumed: {reused} chunks of edge energies reused"
     warnings = "".join(f"; warning: {w}" for w in result.get("warnings", []))
-    return (f"{scn.name}: {result['total_energy']:.6g} J ({per_joint}) over "
-            f"{result['path']['length_nodes']} nodes; roadmap {result['roadmap']['num_nodes']} "
-            f"nodes{roadmap} -> {out_dir}/result.json{warnings}")
+    motion = result.get("motion") or {}
+    if "refinement" in motion:  # a refined motion: say what it is and what it came from
+        e_roadmap = result["roadmap_path"]["total_energy"]
+        how = (f" {motion['execution']} over {len(motion['waypoints'])} waypoints in "
+               f"{motion['duration']:.3g} s (roadmap path {e_roadmap:.6g} J over "
+               f"{result['path']['length_nodes']} nodes)")
+    else:
+        how = f" over {result['path']['length_nodes']} nodes"
+    return (f"{scn.name}: {result['total_energy']:.6g} J ({per_joint}){how}; roadmap "
+            f"{result['roadmap']['num_nodes']} nodes{roadmap} -> {out_dir}/result.json{warnings}")
 
 
 def _parse_dynamic(data: dict[str, Any], path: Path, *, seed: int | None, planner: str | None):

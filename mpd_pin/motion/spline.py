@@ -52,13 +52,16 @@ class ViaSpline:
 
     def derivatives(self, t: np.ndarray, duration: float | np.ndarray) -> tuple[np.ndarray, ...]:
         """q (rad), q̇ (rad/s), q̈ (rad/s²), q⃛ (rad/s³) at times ``t`` (s) of the motion
-        stretched to ``duration`` (s; a scalar, or one per column of a 2-D ``t``); past
-        the end the motion holds its last via point at rest. Shapes: ``t.shape + (nq,)``."""
+        stretched to ``duration`` (s; a scalar, or one per column of a 2-D ``t``); at T the
+        derivatives of the last piece (q⃛ ≠ 0, as for the edge quintic), past T the motion
+        holds its last via point at rest. Shapes: ``t.shape + (nq,)``."""
         t = np.asarray(t, dtype=float)
         T = np.asarray(duration, dtype=float)
         scale = self.unit_duration / T  # dτ/dt
         tau = np.minimum(t * scale, self.unit_duration)
-        moving = (t * scale < self.unit_duration)[..., None]
+        # at t = T itself the piece's own one-sided derivatives (the jerk is not 0 there),
+        # as the edge quintic is evaluated; past T the motion holds its end at rest
+        moving = (t * scale <= self.unit_duration * (1.0 + 1e-12))[..., None]
         out = []
         for nu in range(4):
             d = self.spline(tau, nu)

@@ -91,6 +91,14 @@ def cmd_run(args: argparse.Namespace) -> int:
         except ComputeError as exc:
             raise ConfigError(f"--{exc}") from None
         scn = replace(scn, scheduler=None if kind == "threads" else args.scheduler)
+    if args.execution is not None or args.no_refine:
+        from dataclasses import replace
+
+        if getattr(scn, "kind", None) != "energy":
+            raise ConfigError("--execution and --no-refine apply to energy scenarios")
+        motion = replace(scn.motion, execution=args.execution or scn.motion.execution,
+                         refine=scn.motion.refine and not args.no_refine)
+        scn = replace(scn, motion=motion)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} exists and is not a directory")
@@ -140,6 +148,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="where edge energies run: a Dask scheduler address (tcp://host:8786), "
                         "local[:N] (a LocalCluster of N processes) or threads (this process; "
                         "the default); overrides [compute] scheduler")
+    p.add_argument("--execution", choices=("auto", "stop", "nonstop"), default=None,
+                   help="override [motion] execution: the cheaper of the two (auto), rest at "
+                        "every waypoint (stop) or one smooth motion (nonstop)")
+    p.add_argument("--no-refine", action="store_true",
+                   help="return the roadmap path as it is (no energy-aware shortcuts)")
     p.add_argument("--no-replay", action="store_true", help="skip the meshcat replay.html")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_run)

@@ -26,8 +26,9 @@ from typing import Any
 import numpy as np
 
 from ..motion.energy import MotionEnergy, check_waypoints
-from ..motion.refine import RefinedMotion, refine_candidates
+from ..motion.refine import NoFeasibleMotion, RefinedMotion, refine_candidates
 from ..motion.series import motion_series
+from .config import ConfigError
 from .plan import PlanResult, Setup, path_length
 from .scenario import EnergyScenario
 from .verify import Verification
@@ -122,7 +123,14 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
     cands = {OPTIMUM: roadmap.nodes[plan.path]}
     if opts.refine and shortest is not None and list(shortest.path) != list(plan.path):
         cands[SHORTEST] = roadmap.nodes[shortest.path]
-    refined = refine_candidates(drive, checker, scn.options, cands, opts)
+    try:
+        refined = refine_candidates(drive, checker, scn.options, cands, opts)
+    except NoFeasibleMotion as exc:
+        if opts.max_duration is not None and exc.fastest > opts.max_duration:
+            raise ConfigError(
+                f"motion.max_duration: {opts.max_duration:g} s is shorter than the fastest "
+                f"feasible motion, {exc.fastest:.3f} s") from None
+        raise
     short_motion = None
     if shortest is not None:
         short_motion = refined.by_name.get(SHORTEST)

@@ -111,8 +111,20 @@ def run_energy_scenario(
 
 def _run(scn: EnergyScenario, out_dir: Path, show_progress: bool, cache: Path | None,
          replay: bool, trajectory_rate: float, compute: Compute) -> dict[str, Any]:
-    """:func:`run_energy_scenario` once the compute is open."""
-    check_output_dir(out_dir)
+    """:func:`run_energy_scenario` once the compute is open; a folder this run created is
+    removed again when the run fails before writing anything into it."""
+    created = check_output_dir(out_dir)
+    try:
+        return _run_in(scn, out_dir, show_progress, cache, replay, trajectory_rate, compute)
+    except BaseException:
+        if created and out_dir.is_dir() and not any(out_dir.iterdir()):
+            out_dir.rmdir()
+        raise
+
+
+def _run_in(scn: EnergyScenario, out_dir: Path, show_progress: bool, cache: Path | None,
+            replay: bool, trajectory_rate: float, compute: Compute) -> dict[str, Any]:
+    """The phases of a run (module docstring) into the checked folder ``out_dir``."""
     clock = PhaseClock()
     dt = scn.options.dt
     with clock.phase("roadmap"):

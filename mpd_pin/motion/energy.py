@@ -56,7 +56,9 @@ class MotionEnergy:
     limit; feasible: within both limits, arriving within the tolerance, and certified
     collision-free when a checker was given (``reason`` says why not);
     energy_by_execution: total E⁺ of each mode evaluated (None: infeasible);
-    duration_curve: (duration, E⁺) pairs the non-stop search simulated.
+    duration_curve: (duration, E⁺) pairs the non-stop search simulated; fastest: the
+    shortest duration the execution allows (s: stop-and-go, the roadmap timing; non-stop,
+    the velocity limits).
     """
 
     execution: str
@@ -75,6 +77,8 @@ class MotionEnergy:
     energy_by_execution: dict[str, float | None] = field(default_factory=dict)
     duration_curve: list[tuple[float, float]] = field(default_factory=list)
     alternative: MotionEnergy | None = None
+    #: the shortest duration this execution allows for these waypoints (s)
+    fastest: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON data (docs/design.md §9d)."""
@@ -162,7 +166,7 @@ def _stop(drive: Drive, W: np.ndarray, dt: float, options, checker, effort_on: b
     m = W.shape[0] - 1
     return MotionEnergy("stop", W, energy, float(energy.sum()), float(T.sum()), err, vel, eff,
                         not reasons, m - 1, [(i, i + 1) for i in range(m)], T,
-                        "; ".join(reasons))
+                        "; ".join(reasons), fastest=float(T.sum()))
 
 
 # ----------------------------------------------------------------------------- non-stop
@@ -204,6 +208,13 @@ def _snap(T: np.ndarray | float, dt: float) -> np.ndarray:
     return np.ceil(np.asarray(T, dtype=float) / dt - 1e-9) * dt
 
 
+def _fastest(vs: ViaSpline, vlim: np.ndarray, options, dt: float) -> float:
+    """The shortest duration (s) the velocity limits ``vlim`` (rad/s) allow the spline
+    ``vs``, on the dt grid and not below ``min_duration``."""
+    ratio = vs.peak_speed_ratio(vlim) * 1.002 if options.velocity_limits else 0.0
+    return float(_snap(max(ratio * vs.unit_duration, options.min_duration), dt))
+
+
 def _piece(drive: Drive, W: np.ndarray, dt: float, options, t_max: float | None,
            effort_on: bool, t_budget: float = 0.0):
     """Best duration of one non-stop piece through ``W``: (spline, duration, outcome row
@@ -213,7 +224,7 @@ def _piece(drive: Drive, W: np.ndarray, dt: float, options, t_max: float | None,
     vlim, elim = _limits(drive)
     vs = via_spline(W, unit_knots(W, vlim))
     ratio = vs.peak_speed_ratio(vlim) * 1.002 if options.velocity_limits else 0.0
-    t_lo = float(_snap(max(ratio * vs.unit_duration, options.min_duration), dt))
+    t_lo = _fastest(vs, vlim, options, dt)
     t_hi = max(STRETCH * t_lo, t_lo + 4 * dt, t_budget)
     if t_max is not None:
         t_hi = min(t_hi, t_max)
@@ -329,13 +340,14 @@ def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_durat
         parts = _certified_pieces(W, checker, options.resolution, vlim)
     energy = np.zeros(drive.nq)
     durations, curve, reasons = [], [], []
-    err = vel = eff = 0.0
+    err = vel = eff = fastest = 0.0
     for i, j in parts:
         share = None
         if max_duration is not None:  # each piece gets its share of the budget
             share = max_duration * (j - i) / (W.shape[0] - 1)
         budget = 0.0 if stop is None else float(np.sum(stop.piece_durations[i:j]))
         vs, T, row, cv = _piece(drive, W[i : j + 1], dt, options, share, effort_on, budget)
+        fastest += _fastest(vs, vlim, options, dt)
         if row is None:
             reasons.append(f"no duration within max_duration (the fastest piece {i}–{j} "
                            f"needs {T:.3f} s)")
@@ -355,7 +367,7 @@ def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_durat
     stops = len(parts) - 1
     return MotionEnergy("nonstop", W, energy, float(energy.sum()), float(np.sum(durations)),
                         err, vel, eff, not reasons, stops, parts, np.asarray(durations),
-                        "; ".join(reasons), duration_curve=curve)
+                        "; ".join(reasons), duration_curve=curve, fastest=fastest)
 
 
 # ----------------------------------------------------------------------------- public

@@ -21,7 +21,16 @@ from ..dynamics.motor import Drive
 from .energy import EXECUTIONS, MotionEnergy, trajectory_energy
 from .shortcut import shortcut_path
 
-__all__ = ["MotionOptions", "RefinedMotion", "refine_candidates"]
+__all__ = ["MotionOptions", "NoFeasibleMotion", "RefinedMotion", "refine_candidates"]
+
+
+class NoFeasibleMotion(ValueError):
+    """No candidate gave a feasible motion; ``fastest`` (s) is the shortest duration any
+    candidate's execution allows (what ``max_duration`` would need to be at least)."""
+
+    def __init__(self, message: str, fastest: float) -> None:
+        super().__init__(message)
+        self.fastest = fastest
 
 
 @dataclass(frozen=True)
@@ -112,7 +121,9 @@ def refine_candidates(
     feasible = [n for n, m in by_name.items() if m.feasible]
     if not feasible:
         why = "; ".join(f"{n}: {m.reason}" for n, m in by_name.items())
-        raise ValueError(f"no feasible motion among the candidates ({why})")
+        fastest = min(min(m.fastest, m.alternative.fastest if m.alternative else np.inf)
+                      for m in by_name.values())
+        raise NoFeasibleMotion(f"no feasible motion among the candidates ({why})", fastest)
     best = min(feasible, key=lambda n: by_name[n].total_energy)
     return RefinedMotion(by_name[best], best, records, time.perf_counter() - w0,
                          time.process_time() - c0, by_name)

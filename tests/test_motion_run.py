@@ -1,0 +1,191 @@
+"""The motion a run returns (docs/design.md §9f): result.json, trajectory files, settings,
+the paper scenarios unchanged, hazards and hidden obstacles, bad input.
+
+References: the roadmap path's own energies (result.json ``roadmap_path``), the checker at
+every sample of trajectory.csv (brute force), the trapezoid integral of the CSV's V·i.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mpd_pin.app.cli import main
+from mpd_pin.app.kinds import load_scenario
+from mpd_pin.app.runner import run_energy_scenario
+from mpd_pin.collision import CollisionChecker
+
+
+def _csv(out: Path) -> tuple[list[str], np.ndarray]:
+    with open(out / "trajectory.csv", encoding="utf-8") as f:
+        header = f.readline().strip().split(",")
+    return header, np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    """quickstart run with the default [motion] (auto, refine), no replay."""
+    out = tmp_path_factory.mktemp("quick")
+    scn = load_scenario("quickstart")
+    run_energy_scenario(scn, out, show_progress=False, replay=False)
+    return scn, out, json.loads((out / "result.json").read_text(encoding="utf-8"))
+
+
+def test_quickstart_returns_a_refined_motion_cheaper_than_the_roadmap_path(quick_run):
+    scn, out, r = quick_run
+    m, rp = r["motion"], r["roadmap_path"]
+    assert r["total_energy"] == m["total_energy"]
+    assert r["energy_per_joint"] == m["energy_per_joint"]
+    assert m["feasible"] and m["execution"] in ("stop", "nonstop")
+    # the roadmap path is the MPD* Lite optimum, and the motion beats it
+    assert rp["nodes"] == r["path"]["nodes"]
+    assert m["total_energy"] < 0.9 * rp["total_energy"]
+    cands = {c["name"]: c for c in m["refinement"]["candidates"]}
+    assert set(cands) == {"energy optimum", "shortest path"}
+    assert m["refinement"]["candidate"] in cands
+    assert m["total_energy"] == pytest.approx(min(c["total_energy"] for c in cands.values()))
+    for c in cands.values():  # every shortcut kept only what lowered the stop-and-go energy
+        assert c["stop_energy_shortcut"] <= c["stop_energy_in"] + 1e-12
+    # auto: both executions priced, the cheaper returned
+    by = m["energy_by_execution"]
+    assert m["total_energy"] == pytest.approx(min(v for v in by.values() if v is not None))
+    # the comparison's shortest path, refined the same way
+    rs = r["comparison"]["refined_shortest_path"]
+    assert rs["total_energy"] == pytest.approx(cands["shortest path"]["total_energy"])
+    assert r["comparison"]["motion_energy_saved_percent"] == pytest.approx(
+        100 * (1 - m["total_energy"] / rs["total_energy"]))
+    assert (out / "energy_duration.png").stat().st_size > 10_000
+    assert "refinement" in r["cpu_seconds_per_phase"]
+
+
+def test_quickstart_motion_files_are_the_motion(quick_run):
+    """trajectory.csv is the returned motion: it starts at the start, ends at the goal
+    within the arrival tolerance, is collision-free at every sample, lasts the motion's
+    duration and integrates (max(V·i, 0) per joint) to the reported energy within 2 %."""
+    scn, out, r = quick_run
+    header, T = _csv(out)
+    names = scn.arm.joint_names
+    q = T[:, [header.index(f"q_{n}") for n in names]]
+    V = T[:, [header.index(f"V_{n}") for n in names]]
+    i = T[:, [header.index(f"i_{n}") for n in names]]
+    t = T[:, 0]
+    np.testing.assert_allclose(q[0], scn.start, atol=1e-9)
+    assert np.max(np.abs(q[-1] - scn.goal)) <= scn.options.arrival_tolerance
+    assert t[-1] == pytest.approx(r["motion"]["duration"], abs=1e-6)
+    checker = CollisionChecker(scn.arm, scn.world)
+    assert checker.is_free_batch(q).all()
+    E = np.trapezoid(np.maximum(V * i, 0.0), t, axis=0)
+    assert E.sum() == pytest.approx(r["total_energy"], rel=0.02)
+    np.testing.assert_allclose(r["motion"]["trajectory_energy_per_joint"], E, rtol=1e-6)
+    traj = json.loads((out / "trajectory.json").read_text(encoding="utf-8"))
+    assert traj["points"][-1]["time_from_start"] == pytest.approx(t[-1])
+
+
+def test_paper_scenario_keeps_the_roadmap_path_bit_for_bit(tmp_path):
+    """case1 ([motion] stop, no refine): the motion is the roadmap path and its energy the
+    roadmap's, pinned to the value before motions existed (86,160.8 J, README)."""
+    scn = load_scenario("case1")
+    assert scn.motion.execution == "stop" and not scn.motion.refine
+    r = run_energy_scenario(scn, tmp_path, show_progress=False, replay=False)
+    assert r["total_energy"] == r["roadmap_path"]["total_energy"]
+    assert r["total_energy"] == pytest.approx(86160.8, abs=0.05)
+    assert r["motion"]["execution"] == "stop" and "refinement" not in r["motion"]
+    assert r["motion"]["stops"] == len(r["path"]["nodes"]) - 2
+    assert not (tmp_path / "energy_duration.png").exists()
+
+
+def test_no_refine_stop_prices_the_roadmap_path_exactly(tmp_path, capsys):
+    code = main(["run", "quickstart", "--out", str(tmp_path), "--quiet", "--no-replay",
+                 "--no-refine", "--execution", "stop"])
+    assert code == 0
+    r = json.loads((tmp_path / "result.json").read_text(encoding="utf-8"))
+    assert r["total_energy"] == r["roadmap_path"]["total_energy"]
+    assert r["motion"]["waypoints"] == r["path"]["configurations"]
+    assert "40.6021 J" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("flags, execution, refine", [
+    ([], "auto", True),
+    (["--execution", "nonstop"], "nonstop", True),
+    (["--no-refine"], "auto", False),
+    (["--execution", "stop", "--no-refine"], "stop", False),
+])
+def test_motion_flags_reach_the_run(tmp_path, monkeypatch, flags, execution, refine):
+    """A spy on the runner: the scenario it is given carries the flags' [motion]."""
+    import mpd_pin.app.kinds as kinds
+
+    seen = {}
+
+    def spy(scn, out_dir, **kw):
+        seen["motion"] = scn.motion
+        raise SystemExit(0)
+
+    monkeypatch.setattr(kinds, "run_scenario", spy)
+    with pytest.raises(SystemExit):
+        main(["run", "quickstart", "--out", str(tmp_path), "--quiet", *flags])
+    assert seen["motion"].execution == execution and seen["motion"].refine is refine
+
+
+def _toml(tmp_path: Path, base: str, motion: str) -> Path:
+    from mpd_pin.app.scenario import builtin_scenarios
+
+    text = builtin_scenarios()[base].read_text(encoding="utf-8")
+    text = text.replace("\n[motion]", "\n[unused_motion]") if "\n[motion]" in text else text
+    start = text.find("\n[unused_motion]")
+    if start >= 0:  # drop the scenario's own [motion] table
+        end = text.find("\n[", start + 1)
+        text = text[:start] + text[end:]
+    path = tmp_path / f"{base}_motion.toml"
+    path.write_text(text.replace("\n[task]", f"\n[motion]\n{motion}\n\n[task]", 1),
+                    encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize("motion, words", [
+    ('execution = "fast"', "motion.execution"),
+    ("refine = 1", "motion.refine"),
+    ("max_duration = -2.0", "motion.max_duration"),
+    ("max_duraton = 5.0", "max_duraton"),
+    ('max_duration = 0.2\nrefine = true\nexecution = "auto"',
+     "motion.max_duration: 0.2 s is shorter than the fastest feasible motion, 0.500 s"),
+])
+def test_bad_motion_settings_are_one_line_and_exit_2(tmp_path, capsys, motion, words):
+    path = _toml(tmp_path, "case1", motion)
+    out = tmp_path / "out"
+    code = main(["run", str(path), "--out", str(out), "--quiet", "--no-replay"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert err.startswith("mpd-pin: error:") and words in err
+    assert len(err.strip().splitlines()) == 1
+    assert not out.exists()  # no empty folder left behind
+
+
+def test_refined_motion_keeps_the_hazard_clearance(tmp_path):
+    """The hazard scenario with [motion] refined: every sample of the returned motion keeps
+    each hazard's clearance (brute force with the checker's hazard margin)."""
+    path = _toml(tmp_path, "hazard", 'execution = "auto"\nrefine = true')
+    scn = load_scenario(str(path))
+    out = tmp_path / "out"
+    r = run_energy_scenario(scn, out, show_progress=False, replay=False)
+    assert "refinement" in r["motion"]
+    header, T = _csv(out)
+    q = T[:, [header.index(f"q_{n}") for n in scn.arm.joint_names]]
+    checker = CollisionChecker(scn.arm, scn.world)
+    margins = np.array([checker.hazard_margin(x) for x in q[::2]])
+    assert margins.min() >= -1e-6
+    assert checker.is_free_batch(q).all()
+    assert r["total_energy"] <= r["roadmap_path"]["total_energy"]
+
+
+def test_hidden_obstacles_keep_the_travelled_path_and_say_why(tmp_path):
+    path = _toml(tmp_path, "replan", 'execution = "auto"\nrefine = true')
+    scn = load_scenario(str(path))
+    scn = replace(scn, options=replace(scn.options))
+    r = run_energy_scenario(scn, tmp_path / "out", show_progress=False, replay=False)
+    assert r["motion"]["execution"] == "stop"
+    assert "sensed on the way" in r["motion"]["note"]
+    assert r["total_energy"] == r["roadmap_path"]["total_energy"]

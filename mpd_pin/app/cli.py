@@ -6,6 +6,9 @@
         [--seed N] [--planner NAME]         (planners: mpd_pin.search.PLANNERS, listed by --help)
         [--evaluation lazy|eager]           (override [roadmap] evaluation)
         [--cache FILE] [--scheduler ADDRESS|local[:N]]   roadmap file; Dask cluster (§4h)
+    mpd-pin energy NAME|FILE PATHFILE       price a path planned elsewhere (CSV or JointTrajectory
+        [--execution auto|stop|nonstop]     JSON, :mod:`mpd_pin.app.pathfile`) with the
+        [--out FILE] [--max-duration S]     scenario's motors; writes <PATHFILE stem>_energy.json
 
 Scenario kinds are dispatched by :mod:`mpd_pin.app.kinds`; this module knows none of them.
 
@@ -28,11 +31,17 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 from ..errors import MpdPinError, NoPathError
 from .config import ConfigError
 
 __all__ = ["main"]
+
+#: ``mpd-pin energy --execution`` choices, the default first: mpd_pin.motion.EXECUTIONS,
+#: spelled out so that building the parser does not import the dynamics (a test keeps
+#: the two equal).
+EXECUTIONS = ("auto", "stop", "nonstop")
 
 
 def _describe(path: Path) -> tuple[str, str]:
@@ -109,6 +118,67 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _energy_line(name: str, pathfile: str, motion: Any, out: Path) -> str:
+    """The one line ``mpd-pin energy`` prints (energies J, duration s)."""
+    by = ", ".join(f"{k} {v:.4g} J" if v is not None else f"{k} infeasible"
+                   for k, v in motion.energy_by_execution.items())
+    n = int(motion.stops)
+    text = (f"{motion.total_energy:.4g} J {motion.execution} ({by}), {motion.duration:.2f} s, "
+            f"{n} stop{'' if n == 1 else 's'}")
+    if not motion.feasible:
+        text = f"infeasible ({motion.reason}): {text}"
+    return " ".join(f"{name} {pathfile}: {text} -> {out}".split())
+
+
+def cmd_energy(args: argparse.Namespace) -> int:
+    """Price the waypoints of ``args.pathfile`` on the arm, motors and known obstacles of
+    ``args.scenario`` (:func:`mpd_pin.motion.trajectory_energy`) and write the JSON file."""
+    import math
+    import os
+
+    from ..collision import CollisionChecker
+    from ..motion import trajectory_energy
+    from .kinds import load_scenario
+    from .pathfile import check_path, read_path_file
+    from .results import write_json
+
+    max_duration = args.max_duration
+    if max_duration is not None and not (math.isfinite(max_duration) and max_duration > 0):
+        raise ConfigError(f"--max-duration must be a number > 0 (s), got {max_duration!r}")
+    pathfile = Path(args.pathfile)
+    if args.out is not None:
+        out = Path(args.out)
+    else:
+        out = pathfile.with_name(f"{pathfile.stem}_energy.json")
+    if out.is_dir():
+        raise ConfigError(f"--out {str(out)!r} is a directory (give a file name)")
+    if out.exists() and pathfile.exists() and out.resolve() == pathfile.resolve():
+        raise ConfigError(f"--out {str(out)!r} is the path file itself")
+    scn = load_scenario(args.scenario)
+    kind = getattr(scn, "kind", "?")
+    if kind != "energy":
+        raise ConfigError(f"energy prices paths on energy scenarios; {args.scenario!r} is a "
+                          f"{kind} scenario")
+    names = list(scn.arm.joint_names)
+    pf = read_path_file(pathfile, names)
+    checker = CollisionChecker(scn.arm, scn.world)  # the obstacles known at the start
+    check_path(pf.waypoints, scn.arm, checker, rows=pf.rows, source=str(pathfile))
+    if max_duration is None:
+        max_duration = getattr(scn, "max_duration", None)
+    motion = trajectory_energy(scn.drive(), pf.waypoints, args.execution, options=scn.options,
+                               checker=checker, max_duration=max_duration)
+    doc = {"scenario": scn.name, "pathfile": str(pathfile), "joint_names": names,
+           **motion.to_dict()}
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_json(out, doc)
+        os.chmod(out, 0o644)
+    except OSError as exc:
+        raise ConfigError(f"--out {str(out)!r}: cannot write: {exc.strerror or exc}") from None
+    print(_energy_line(scn.name, str(pathfile), motion, out))
+    return 0
+
+
 def _planners_help() -> str:
     from ..search.registry import DEFAULT_PLANNER, PLANNERS
 
@@ -156,6 +226,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-replay", action="store_true", help="skip the meshcat replay.html")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_run)
+    p = sub.add_parser("energy", help="price a path planned elsewhere (OMPL, MoveIt): its "
+                       "energy stop-and-go or non-stop on a scenario's arm and motors",
+                       description="Price the waypoints of PATHFILE on the arm, motors and "
+                       "known obstacles of SCENARIO (an energy scenario). PATHFILE: .csv "
+                       "(a header row naming the joints, columns in any order, other columns "
+                       "ignored; or no header and one column per joint in joint order) or "
+                       ".json (trajectory_msgs/JointTrajectory: joint_names, "
+                       "points[].positions). Prints one line and writes a JSON file.")
+    p.add_argument("scenario", help="built-in scenario name or path to a .toml file")
+    p.add_argument("pathfile", help="waypoints: .csv or .json (rad, or m for prismatic joints)")
+    p.add_argument("--execution", choices=EXECUTIONS, default=EXECUTIONS[0],
+                   help="stop: rest at every waypoint (roadmap-timed edges); nonstop: one "
+                        "spline through them, duration chosen for least energy; auto: the "
+                        "cheaper feasible one (default)")
+    p.add_argument("--out", default=None, metavar="FILE",
+                   help="JSON file to write (default: <PATHFILE stem>_energy.json beside it)")
+    p.add_argument("--max-duration", type=float, default=None, metavar="S",
+                   help="longest the whole motion may take (s); default: the scenario's "
+                        "max_duration if it has one, else no limit")
+    p.set_defaults(func=cmd_energy)
     return parser
 
 

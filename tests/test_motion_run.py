@@ -48,7 +48,9 @@ def test_quickstart_returns_a_refined_motion_cheaper_than_the_roadmap_path(quick
     assert set(cands) == {"energy optimum", "shortest path"}
     assert m["refinement"]["candidate"] in cands
     assert m["total_energy"] == pytest.approx(min(c["total_energy"] for c in cands.values()))
-    for c in cands.values():  # every shortcut kept only what lowered the stop-and-go energy
+    for c in cands.values():  # each step kept only what lowered the stop-and-go energy
+        assert c["stop_energy_out"] <= c["stop_energy_relaxed"] + 1e-12
+        assert c["stop_energy_relaxed"] <= c["stop_energy_shortcut"] + 1e-12
         assert c["stop_energy_shortcut"] <= c["stop_energy_in"] + 1e-12
     # auto: both executions priced, the cheaper returned
     by = m["energy_by_execution"]

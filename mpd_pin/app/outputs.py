@@ -215,15 +215,17 @@ def write_plots(
     }
     curve = _duration_curve(motion)
     if curve is not None:
-        figs["energy_duration.png"] = plot_energy_duration(*curve, title=scn.name)
+        figs["energy_duration.png"] = plot_energy_duration(*curve[:3], ideal=curve[3],
+                                                           title=scn.name)
     for fname, fig in figs.items():
         fig.savefig(out_dir / fname, dpi=110)
         plt.close(fig)
 
 
 def _duration_curve(motion: RunMotion | None):
-    """(non-stop curve [(T, E)], stop-and-go point (T, E) or None, chosen (T, E)) of a
-    refined motion whose single non-stop piece was searched; else None."""
+    """(simulated non-stop points [(T, E)], stop-and-go point (T, E) or None, chosen (T, E),
+    perfect-tracking screen [(T, E)]) of a refined motion whose single non-stop piece was
+    searched; else None."""
     if motion is None or motion.refined is None:
         return None
     m = motion.energy
@@ -232,7 +234,7 @@ def _duration_curve(motion: RunMotion | None):
         return None
     stop = m if m.execution == "stop" else m.alternative
     stop_pt = (stop.duration, stop.total_energy) if stop is not None and stop.feasible else None
-    return non.duration_curve, stop_pt, (m.duration, m.total_energy)
+    return non.duration_curve, stop_pt, (m.duration, m.total_energy), non.ideal_curve
 
 
 def write_replay_html(

@@ -36,8 +36,9 @@ __all__ = ["EXECUTIONS", "MotionEnergy", "trajectory_energy", "check_waypoints",
 #: Values of ``execution``; the first is the default.
 EXECUTIONS = ("auto", "stop", "nonstop")
 
-#: Duration search of a non-stop piece: candidates in the first batch and in the refinement.
-FIRST_GRID, SECOND_GRID = 5, 2
+#: Durations of a non-stop piece screened by perfect-tracking energy (the best and its two
+#: neighbours are simulated).
+SCREEN_GRID = 24
 
 #: The longest non-stop duration tried, as a multiple of the fastest one allowed.
 STRETCH = 3.0
@@ -56,7 +57,8 @@ class MotionEnergy:
     limit; feasible: within both limits, arriving within the tolerance, and certified
     collision-free when a checker was given (``reason`` says why not);
     energy_by_execution: total E⁺ of each mode evaluated (None: infeasible);
-    duration_curve: (duration, E⁺) pairs the non-stop search simulated; fastest: the
+    duration_curve: (duration, E⁺) pairs the non-stop search simulated; ideal_curve: the
+    perfect-tracking (duration, E⁺) screen over its whole duration range; fastest: the
     shortest duration the execution allows (s: stop-and-go, the roadmap timing; non-stop,
     the velocity limits).
     """
@@ -76,6 +78,7 @@ class MotionEnergy:
     reason: str = ""
     energy_by_execution: dict[str, float | None] = field(default_factory=dict)
     duration_curve: list[tuple[float, float]] = field(default_factory=list)
+    ideal_curve: list[tuple[float, float]] = field(default_factory=list)
     alternative: MotionEnergy | None = None
     #: the shortest duration this execution allows for these waypoints (s)
     fastest: float = 0.0
@@ -248,22 +251,47 @@ def _piece(drive: Drive, W: np.ndarray, dt: float, options, t_max: float | None,
                        "velocity": ratio / 1.002 * vs.unit_duration / T}
             curve.append((T, float(E[k].sum())))
 
-    run(np.geomspace(t_lo, t_hi, FIRST_GRID) if t_hi > t_lo else np.array([t_lo]))
-    grid = sorted(rows)
-    ok = [T for T in grid if rows[T]["ok"]]
-    if ok:
-        best = min(ok, key=lambda T: rows[T]["energy"].sum())
-        i = grid.index(best)
-        lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
-        if hi > lo:
-            run(np.linspace(lo, hi, SECOND_GRID + 2)[1:-1])
+    # Screen the durations by perfect-tracking energy (no simulation), simulate the best
+    # one and its neighbours in one batch; the whole grid only if none of them is feasible.
+    grid = np.unique(_snap(np.geomspace(t_lo, t_hi, SCREEN_GRID) if t_hi > t_lo
+                           else np.array([t_lo]), dt))
+    grid = grid[grid <= max(t_hi, t_lo) + 1e-9]
+    e_ideal, peak_ideal = ideal_nonstop(drive, vs, grid)
+    fits = ~effort_on | np.all(peak_ideal <= elim, axis=1)
+    order = np.argsort(np.where(fits, e_ideal, np.inf))
+    i = int(order[0])
+    run(grid[max(i - 1, 0): i + 2])
+    if not any(r["ok"] for r in rows.values()):
+        run(grid)
     ok = [T for T in rows if rows[T]["ok"]]
     curve.sort()
+    ideal = _ideal_curve(grid, e_ideal)
     if not ok:
         worst = rows[max(rows)]
-        return vs, max(rows), dict(worst, ok=False), curve
+        return vs, max(rows), dict(worst, ok=False, ideal=ideal), curve
     best = min(ok, key=lambda T: rows[T]["energy"].sum())
-    return vs, best, rows[best], curve
+    return vs, best, dict(rows[best], ideal=ideal), curve
+
+
+def _ideal_curve(grid: np.ndarray, energy: np.ndarray) -> list[tuple[float, float]]:
+    return [(float(T), float(e)) for T, e in zip(grid, energy, strict=True)]
+
+
+def ideal_nonstop(drive: Drive, vs: ViaSpline, durations: np.ndarray, samples: int = 256
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Perfect-tracking E⁺ (J, summed over joints) of the spline ``vs`` stretched to each
+    duration (s), by Simpson's rule over ``samples`` + 1 points, and the peak feed-forward
+    torque per joint (N·m), (K, nq) — a screen for the duration search (§9c)."""
+    T = np.asarray(durations, dtype=float)
+    tau = np.linspace(0.0, 1.0, samples + 1)
+    t = tau[:, None] * T[None, :]
+    Qr, Vr, Ar, Jr = vs.derivatives(t, T)
+    Vff, iff = feedforward_tables(drive, Qr, Vr, Ar, Jr)
+    P = np.maximum(Vff * iff, 0.0).sum(axis=2)
+    w = np.ones(tau.size)
+    w[1:-1:2], w[2:-1:2] = 4.0, 2.0
+    energy = (w @ P) / (3.0 * samples) * T
+    return energy, np.max(np.abs(iff), axis=0) * drive.torque_per_amp
 
 
 def _first_failure(checker, vs: ViaSpline, resolution: float, min_step: float = 1e-6
@@ -339,7 +367,7 @@ def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_durat
     else:
         parts = _certified_pieces(W, checker, options.resolution, vlim)
     energy = np.zeros(drive.nq)
-    durations, curve, reasons = [], [], []
+    durations, curve, reasons, ideal = [], [], [], []
     err = vel = eff = fastest = 0.0
     for i, j in parts:
         share = None
@@ -361,13 +389,14 @@ def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_durat
         err, vel, eff = max(err, row["end_error"]), max(vel, row["velocity"]), max(
             eff, row["effort"])
         if len(parts) == 1:
-            curve = cv
+            curve, ideal = cv, row["ideal"]
     if checker is not None and stop is not None and "collision" in stop.reason:
         reasons.append(stop.reason)
     stops = len(parts) - 1
     return MotionEnergy("nonstop", W, energy, float(energy.sum()), float(np.sum(durations)),
                         err, vel, eff, not reasons, stops, parts, np.asarray(durations),
-                        "; ".join(reasons), duration_curve=curve, fastest=fastest)
+                        "; ".join(reasons), duration_curve=curve, ideal_curve=ideal,
+                        fastest=fastest)
 
 
 # ----------------------------------------------------------------------------- public

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..dynamics.motor import Drive
 from .energy import EXECUTIONS, MotionEnergy, trajectory_energy
+from .relax import relax_path
 from .shortcut import shortcut_path
 
 __all__ = ["MotionOptions", "NoFeasibleMotion", "RefinedMotion", "refine_candidates"]
@@ -41,7 +42,7 @@ class MotionOptions:
     "nonstop"; refine: shortcut the candidates where energy drops (False: the roadmap
     path as it is); max_duration: the longest motion allowed (s; None: no limit);
     interior: points inside each segment a shortcut may start or end at; max_rounds:
-    shortcut rounds per candidate.
+    shortcut rounds per candidate; seed: of the via-point relaxation (reproducible).
     """
 
     execution: str = "auto"
@@ -49,6 +50,7 @@ class MotionOptions:
     max_duration: float | None = None
     interior: int = 3
     max_rounds: int = 2
+    seed: int = 0
 
     def __post_init__(self) -> None:
         if self.execution not in EXECUTIONS:
@@ -105,10 +107,16 @@ def refine_candidates(
         if motion.refine and W.shape[0] > 2:
             sc = shortcut_path(drive, W, checker, options, interior=motion.interior,
                                max_rounds=motion.max_rounds, memo=memo)
+            rx = relax_path(drive, sc.waypoints, checker, options, seed=motion.seed, memo=memo)
+            sc2 = shortcut_path(drive, rx.waypoints, checker, options,
+                                interior=motion.interior, max_rounds=1, memo=memo)
             rec.update(stop_energy_in=sc.initial_energy, stop_energy_shortcut=sc.total_energy,
-                       shortcut_rounds=sc.rounds, pairs_checked=sc.pairs_checked,
-                       edges_simulated=sc.edges_simulated)
-            W = sc.waypoints
+                       stop_energy_relaxed=rx.total_energy, stop_energy_out=sc2.total_energy,
+                       shortcut_rounds=sc.rounds + sc2.rounds, via_points_moved=rx.moves,
+                       pairs_checked=sc.pairs_checked + sc2.pairs_checked,
+                       edges_simulated=sc.edges_simulated + rx.edges_simulated
+                       + sc2.edges_simulated)
+            W = sc2.waypoints
         me = trajectory_energy(drive, W, motion.execution, options=options, checker=checker,
                                max_duration=motion.max_duration)
         rec.update(waypoints=int(me.waypoints.shape[0]), execution=me.execution,

@@ -8,13 +8,16 @@ interior via points by a seeded stochastic local search:
 * a round perturbs every other interior via point (odd ones, then even ones, so the
   neighbours of each moved point stay fixed while it moves): ``samples`` Gaussian
   candidates each, σ per joint a fraction of the joint's range;
-* each candidate must be free and both its edges certified free; both edges are simulated
-  rest to rest with the roadmap's timing in one batch for all candidates of the half-round,
-  refused by the roadmap's rules;
-* a via point moves to its best candidate when that lowers the two edges' E⁺.
+* the free candidates are screened by the perfect-tracking energy of their two edges
+  (:func:`~mpd_pin.motion.shortcut.ideal_costs`, no simulation); of the ``keep`` best
+  that beat the via point's present two edges, the cheapest whose two edges are both
+  certified free is where the via point moves;
+* σ halves after a round in which nothing moved;
+* after the last round the relaxed path is simulated rest to rest with the roadmap's
+  timing in one batch (refused by the roadmap's rules) and kept only if its E⁺ really fell.
 
-σ halves after a round in which nothing moved. Every accepted edge passed the certified
-check and has its own simulated energy, so the result's stop-and-go energy is exact.
+Every kept edge passed the certified check and has its own simulated energy, so the
+result's stop-and-go energy is exact.
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..dynamics.motor import Drive
-from .shortcut import _edge_costs
+from .shortcut import _edge_costs, ideal_costs
 
 __all__ = ["RelaxResult", "relax_path"]
 
@@ -52,13 +55,16 @@ def relax_path(
     options,
     *,
     rounds: int = 6,
-    samples: int = 12,
+    samples: int = 32,
+    keep: int = 3,
     sigma: float = 0.08,
     seed: int = 0,
     memo: dict | None = None,
 ) -> RelaxResult:
     """Move the interior via points of ``waypoints`` (a certified-free path, rad) where the
-    stop-and-go E⁺ drops (module docstring). ``sigma``: the initial step as a fraction of
+    stop-and-go E⁺ drops (module docstring). Each via point draws ``samples`` candidates,
+    screened by their perfect-tracking energy (:func:`ideal_costs`); the ``keep`` best
+    free ones are certified and simulated. ``sigma``: the initial step as a fraction of
     each joint's range (joints without finite limits: of 2π rad); ``seed`` makes it
     reproducible; ``options``: the roadmap's RoadmapOptions."""
     rng = np.random.default_rng(seed)
@@ -67,60 +73,72 @@ def relax_path(
     memo = {} if memo is None else memo
     W = np.array(waypoints, dtype=float)
     m = W.shape[0] - 1
+    nq = W.shape[1]
+    vlim = drive.arm.model.velocityLimit
     lo = np.asarray(drive.arm.model.lowerPositionLimit, float)
     hi = np.asarray(drive.arm.model.upperPositionLimit, float)
     finite = np.isfinite(lo) & np.isfinite(hi)
     span = np.where(finite, hi - lo, 2 * np.pi)
     lo_c, hi_c = np.where(finite, lo, -np.inf), np.where(finite, hi, np.inf)
-    E, ok, simulated = _edge_costs(drive, W, np.arange(m), np.arange(1, m + 1), options, dt,
-                                   effort_on, memo)
-    seg = E  # (m, nq) per edge
+    seg, ok, simulated = _edge_costs(drive, W, np.arange(m), np.arange(1, m + 1), options, dt,
+                                     effort_on, memo)
     initial = float(seg.sum())
     moves = 0
     step = float(sigma)
     if m < 2 or not ok.all():
         return RelaxResult(W, seg.sum(axis=0), initial, 0, simulated)
+
+    def screen_path(Q: np.ndarray) -> np.ndarray:
+        return ideal_costs(drive, Q[:-1], Q[1:], options.timing(Q[:-1], Q[1:], vlim)[0])
+
+    start, screen = W.copy(), screen_path(W)
     for _ in range(rounds):
         moved = 0
         for parity in (1, 2):
             idx = np.arange(parity, m, 2)  # interior via points 1 … m−1 of this parity
             if not idx.size:
                 continue
-            cand = W[idx, None, :] + rng.standard_normal((idx.size, samples, W.shape[1])) * (
-                step * span)
-            cand = np.clip(cand, lo_c, hi_c).reshape(-1, W.shape[1])
+            cand = W[idx, None, :] + rng.standard_normal((idx.size, samples, nq)) * (step * span)
+            cand = np.clip(cand, lo_c, hi_c).reshape(-1, nq)
             owner = np.repeat(idx, samples)
-            free = checker.is_free_batch(cand)
-            if free.any():
-                prev, nxt = W[owner - 1], W[owner + 1]
-                both = np.concatenate([prev[free], cand[free]]), np.concatenate(
-                    [cand[free], nxt[free]])
-                f_idx = np.flatnonzero(free)
-                certified = checker.edges_free(both[0], both[1], options.resolution)
-                n = f_idx.size
-                good = certified[:n] & certified[n:]
-                free[f_idx[~good]] = False
-            keep = np.flatnonzero(free)
-            if not keep.size:
+            free = np.flatnonzero(checker.is_free_batch(cand))
+            if not free.size:
                 continue
-            P = np.vstack([W[owner[keep] - 1], cand[keep], W[owner[keep] + 1]])
-            k = keep.size
-            I = np.concatenate([np.arange(k), k + np.arange(k)])
-            J = np.concatenate([k + np.arange(k), 2 * k + np.arange(k)])
-            Ec, okc, fresh = _edge_costs(drive, P, I, J, options, dt, effort_on, memo)
-            simulated += fresh
-            total = np.where(okc[:k] & okc[k:], Ec[:k].sum(axis=1) + Ec[k:].sum(axis=1), np.inf)
+            prev, nxt, c = W[owner[free] - 1], W[owner[free] + 1], cand[free]
+            T0 = options.timing(prev, c, vlim)[0]
+            T1 = options.timing(c, nxt, vlim)[0]
+            both = ideal_costs(drive, np.vstack([prev, c]), np.vstack([c, nxt]),
+                               np.concatenate([T0, T1]))
+            e0, e1 = both[: free.size], both[free.size :]
+            best = []
+            for v in idx:  # the ``keep`` cheapest by the screen that beat the via point now
+                rows = np.flatnonzero(owner[free] == v)
+                rows = rows[e0[rows] + e1[rows] < (screen[v - 1] + screen[v]) * (1 - 1e-9)]
+                best.extend(rows[np.argsort((e0 + e1)[rows])[:keep]].tolist())
+            if not best:
+                continue
+            best = np.asarray(best, dtype=np.int64)
+            k = best.size
+            certified = checker.edges_free(np.vstack([prev[best], c[best]]),
+                                           np.vstack([c[best], nxt[best]]), options.resolution)
+            good = best[certified[:k] & certified[k:]]
             for v in idx:
-                rows = np.flatnonzero(owner[keep] == v)
+                rows = good[owner[free][good] == v]
                 if not rows.size:
                     continue
-                b = rows[np.argmin(total[rows])]
-                current = seg[v - 1].sum() + seg[v].sum()
-                if total[b] < current * (1.0 - 1e-9):
-                    W[v] = cand[keep[b]]
-                    seg[v - 1], seg[v] = Ec[b], Ec[k + b]
-                    moved += 1
+                b = rows[np.argmin((e0 + e1)[rows])]
+                W[v] = c[b]
+                screen[v - 1], screen[v] = e0[b], e1[b]
+                moved += 1
         moves += moved
         if not moved:
             step /= 2
+    if moves:  # the relaxed path, simulated in one batch: kept if its E⁺ really fell
+        E, ok, fresh = _edge_costs(drive, W, np.arange(m), np.arange(1, m + 1), options, dt,
+                                   effort_on, memo)
+        simulated += fresh
+        if ok.all() and E.sum() < seg.sum() * (1.0 - 1e-9):
+            seg = E
+        else:
+            W, moves = start, 0
     return RelaxResult(W, seg.sum(axis=0), initial, moves, simulated)

@@ -538,18 +538,23 @@ def plot_energy_duration(
     stop: tuple[float, float] | None,
     chosen: tuple[float, float],
     *,
+    ideal: Sequence[tuple[float, float]] = (),
     title: str = "",
 ):
-    """E⁺ (J) of the non-stop motion against its total duration (s), as the duration
-    search simulated it (docs/design.md §9c), with the stop-and-go motion of the same
-    waypoints (roadmap timing) and the motion returned marked."""
+    """E⁺ (J) of the non-stop motion against its total duration (s) (docs/design.md §9c):
+    the perfect-tracking screen over the whole range (``ideal``), the durations simulated
+    (``curve``), the stop-and-go motion of the same waypoints (roadmap timing) and the
+    motion returned."""
     import matplotlib.pyplot as plt
 
     T = np.array([c[0] for c in curve])
     E = np.array([c[1] for c in curve])
     order = np.argsort(T)
     fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(T[order], E[order], "o-", color="#1d3557", label="non-stop, simulated durations")
+    if len(ideal):
+        Ti, Ei = np.array(ideal).T
+        ax.plot(Ti, Ei, "-", color="#8d99ae", label="non-stop, perfect tracking (screen)")
+    ax.plot(T[order], E[order], "o", color="#1d3557", label="non-stop, simulated")
     if stop is not None:
         ax.plot([stop[0]], [stop[1]], "s", color="#e76f51", ms=9,
                 label=f"stop-and-go (roadmap timing): {stop[1]:.4g} J, {stop[0]:.3g} s")

@@ -369,10 +369,12 @@ def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_durat
     energy = np.zeros(drive.nq)
     durations, curve, reasons, ideal = [], [], [], []
     err = vel = eff = fastest = 0.0
-    for i, j in parts:
+    quick = [_fastest(via_spline(W[i : j + 1], unit_knots(W[i : j + 1], vlim)), vlim, options,
+                      dt) for i, j in parts]
+    for (i, j), t_fast in zip(parts, quick, strict=True):
         share = None
-        if max_duration is not None:  # each piece gets its share of the budget
-            share = max_duration * (j - i) / (W.shape[0] - 1)
+        if max_duration is not None:  # each piece's share: in proportion to its fastest
+            share = max_duration * t_fast / sum(quick)
         budget = 0.0 if stop is None else float(np.sum(stop.piece_durations[i:j]))
         vs, T, row, cv = _piece(drive, W[i : j + 1], dt, options, share, effort_on, budget)
         fastest += _fastest(vs, vlim, options, dt)

@@ -83,6 +83,8 @@ def test_quickstart_motion_files_are_the_motion(quick_run):
     E = np.trapezoid(np.maximum(V * i, 0.0), t, axis=0)
     assert E.sum() == pytest.approx(r["total_energy"], rel=0.02)
     np.testing.assert_allclose(r["motion"]["trajectory_energy_per_joint"], E, rtol=1e-6)
+    for name in ("result.json", "trajectory.csv", "trajectory.json"):  # readable like the PNGs
+        assert (out / name).stat().st_mode & 0o777 == (out / "path.png").stat().st_mode & 0o777
     traj = json.loads((out / "trajectory.json").read_text(encoding="utf-8"))
     assert traj["points"][-1]["time_from_start"] == pytest.approx(t[-1])
 

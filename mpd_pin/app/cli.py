@@ -134,7 +134,6 @@ def cmd_energy(args: argparse.Namespace) -> int:
     """Price the waypoints of ``args.pathfile`` on the arm, motors and known obstacles of
     ``args.scenario`` (:func:`mpd_pin.motion.trajectory_energy`) and write the JSON file."""
     import math
-    import os
 
     from ..collision import CollisionChecker
     from ..motion import trajectory_energy
@@ -172,7 +171,6 @@ def cmd_energy(args: argparse.Namespace) -> int:
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         write_json(out, doc)
-        os.chmod(out, 0o644)
     except OSError as exc:
         raise ConfigError(f"--out {str(out)!r}: cannot write: {exc.strerror or exc}") from None
     print(_energy_line(scn.name, str(pathfile), motion, out))

@@ -126,11 +126,13 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
     try:
         refined = refine_candidates(drive, checker, scn.options, cands, opts)
     except NoFeasibleMotion as exc:
-        if opts.max_duration is not None and exc.fastest > opts.max_duration:
+        if opts.max_duration is None:
+            raise
+        if exc.fastest > opts.max_duration:
             raise ConfigError(
                 f"motion.max_duration: {opts.max_duration:g} s is shorter than the fastest "
                 f"feasible motion, {exc.fastest:.3f} s") from None
-        raise
+        raise ConfigError(f"motion.max_duration: {opts.max_duration:g} s: {exc}") from None
     short_motion = None
     if shortest is not None:
         short_motion = refined.by_name.get(SHORTEST)

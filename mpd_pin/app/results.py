@@ -64,6 +64,15 @@ def to_jsonable(obj: Any) -> Any:
     return obj
 
 
+def readable_mode() -> int:
+    """The mode a new file gets under this process's umask (0o666 & ~umask, e.g. 0644):
+    temporary files from :func:`tempfile.mkstemp` are 0600, which an atomic write would
+    otherwise keep."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def write_json(path: str | os.PathLike, obj: Any) -> Path:
     """Write ``to_jsonable(obj)`` to ``path`` atomically (temporary file, then ``os.replace``).
 
@@ -76,6 +85,7 @@ def write_json(path: str | os.PathLike, obj: Any) -> Path:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text)
             f.write("\n")
+        os.chmod(tmp, readable_mode())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

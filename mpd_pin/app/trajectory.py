@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .results import write_json
+from .results import readable_mode, write_json
 
 __all__ = [
     "DEFAULT_TRAJECTORY_RATE",
@@ -69,6 +69,7 @@ def write_trajectory_csv(
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(",".join(trajectory_columns(joint_names)) + "\n")
             np.savetxt(f, table, delimiter=",", fmt="%.10g")
+        os.chmod(tmp, readable_mode())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

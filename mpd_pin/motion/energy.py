@@ -20,13 +20,13 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
 
 from ..dynamics.motor import Drive
-from ..dynamics.simulate import edge_outcomes, step_count
+from ..dynamics.simulate import EdgeOutcomes, edge_outcomes, step_count
 from ..dynamics.tracking import _pool, feedforward_tables, integrate_tables
 from .spline import ViaSpline, arc_boxes, pieces, unit_knots, via_spline
 
@@ -36,8 +36,8 @@ __all__ = ["EXECUTIONS", "MotionEnergy", "trajectory_energy", "check_waypoints",
 #: Values of ``execution``; the first is the default.
 EXECUTIONS = ("auto", "stop", "nonstop")
 
-#: Durations of a non-stop piece screened by perfect-tracking energy (the best and its two
-#: neighbours are simulated).
+#: Durations of a non-stop piece screened by perfect-tracking energy (the best is simulated;
+#: its neighbours, then all, only while none simulated is feasible).
 SCREEN_GRID = 24
 
 #: The longest non-stop duration tried, as a multiple of the fastest one allowed.
@@ -141,13 +141,32 @@ def _limits(drive: Drive) -> tuple[np.ndarray, np.ndarray]:
 
 
 # ----------------------------------------------------------------------------- stop
-def _stop(drive: Drive, W: np.ndarray, dt: float, options, checker, effort_on: bool
-          ) -> MotionEnergy:
+def _outcomes(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, dt: float,
+              memo: dict | None) -> EdgeOutcomes:
+    """:func:`edge_outcomes` of the edges, reusing rows kept in ``memo`` (keyed by the
+    endpoints', duration's and step's bytes; rows never mix in a batch, so a row is the
+    same whichever batch computed it) and keeping the new ones there."""
+    if memo is None:
+        return edge_outcomes(drive, Q0, Q1, T, dt)
+    keys = [a.tobytes() + b.tobytes() + np.float64(t).tobytes() + np.float64(dt).tobytes()
+            for a, b, t in zip(Q0, Q1, T, strict=True)]
+    new = np.array([("outcome", k) not in memo for k in keys], dtype=bool)
+    if new.any():
+        out = edge_outcomes(drive, Q0[new], Q1[new], T[new], dt)
+        for r, k in enumerate(np.flatnonzero(new)):
+            memo["outcome", keys[k]] = tuple(getattr(out, f.name)[r] for f in
+                                             fields(EdgeOutcomes))
+    rows = [memo["outcome", k] for k in keys]
+    return EdgeOutcomes(*(np.array([r[i] for r in rows]) for i in range(len(rows[0]))))
+
+
+def _stop(drive: Drive, W: np.ndarray, dt: float, options, checker, effort_on: bool,
+          memo: dict | None = None) -> MotionEnergy:
     """Rest-to-rest quintic edges between consecutive waypoints, roadmap timing."""
     Q0, Q1 = W[:-1], W[1:]
     vlim, elim = _limits(drive)
     T, _ = options.timing(Q0, Q1, drive.arm.model.velocityLimit)
-    out = edge_outcomes(drive, Q0, Q1, T, dt)
+    out = _outcomes(drive, Q0, Q1, T, dt, memo)
     energy = out.energy.sum(axis=0)
     vel = float(np.max(1.875 * np.abs(Q1 - Q0) / T[:, None] / vlim))
     eff = float(np.max(out.peak_torque / elim))
@@ -259,8 +278,10 @@ def _piece(drive: Drive, W: np.ndarray, dt: float, options, t_max: float | None,
     e_ideal, peak_ideal = ideal_nonstop(drive, vs, grid)
     fits = ~effort_on | np.all(peak_ideal <= elim, axis=1)
     order = np.argsort(np.where(fits, e_ideal, np.inf))
-    i = int(order[0])
-    run(grid[max(i - 1, 0): i + 2])
+    run(grid[order[:1]])  # the screen's best
+    if not any(r["ok"] for r in rows.values()):  # then its neighbours, then the whole grid
+        i = int(order[0])
+        run(grid[max(i - 1, 0): i + 2])
     if not any(r["ok"] for r in rows.values()):
         run(grid)
     ok = [T for T in rows if rows[T]["ok"]]
@@ -411,6 +432,7 @@ def trajectory_energy(
     options: Any = None,
     checker: Any = None,
     max_duration: float | None = None,
+    memo: dict | None = None,
 ) -> MotionEnergy:
     """E⁺ (J) of the arm running through ``waypoints`` ((m+1, nq) rad; docs/design.md §9a).
 
@@ -421,7 +443,8 @@ def trajectory_energy(
     or "auto" (both; the cheaper feasible one, the other in ``.alternative``). ``dt``: RK4
     step (s; default ``options.dt``). With a collision ``checker`` the motion is certified
     free (straight edges for stop; the spline's curve for non-stop, which keeps a stop
-    where its curve is not free). ValueError for bad waypoints or an unknown execution.
+    where its curve is not free). ``memo`` (a dict) reuses stop-and-go edges simulated
+    before with it. ValueError for bad waypoints or an unknown execution.
     """
     from ..planning.roadmap import RoadmapOptions
 
@@ -433,7 +456,7 @@ def trajectory_energy(
         raise ValueError(f"max_duration must be a number > 0 (s), got {max_duration!r}")
     W = check_waypoints(drive, waypoints)
     effort_on = bool(options.effort_limits)
-    stop = _stop(drive, W, dt, options, checker, effort_on)
+    stop = _stop(drive, W, dt, options, checker, effort_on, memo)
     if max_duration is not None and stop.duration > max_duration + 1e-9:
         stop.feasible = False
         stop.reason = "; ".join(filter(None, [stop.reason, f"takes {stop.duration:.3f} s > "

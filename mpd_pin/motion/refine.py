@@ -118,7 +118,7 @@ def refine_candidates(
                        + sc2.edges_simulated)
             W = sc2.waypoints
         me = trajectory_energy(drive, W, motion.execution, options=options, checker=checker,
-                               max_duration=motion.max_duration)
+                               max_duration=motion.max_duration, memo=memo)
         rec.update(waypoints=int(me.waypoints.shape[0]), execution=me.execution,
                    total_energy=me.total_energy, duration=me.duration, feasible=me.feasible,
                    energy_by_execution=dict(me.energy_by_execution))

@@ -31,7 +31,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..dynamics.motor import Drive
-from ..dynamics.simulate import edge_outcomes
 
 __all__ = ["ShortcutResult", "densify", "shortcut_path"]
 
@@ -67,25 +66,22 @@ def densify(W: np.ndarray, interior: int) -> tuple[np.ndarray, np.ndarray]:
 
 def _edge_costs(drive: Drive, P: np.ndarray, I: np.ndarray, J: np.ndarray, options, dt: float,
                 effort_on: bool, memo: dict | None = None) -> tuple[np.ndarray, np.ndarray, int]:
-    """E⁺ per joint (K, nq) of the straight edges P[I] → P[J], whether each is feasible by
-    the roadmap's rules (docs/design.md §4e), and how many were simulated (the others come
-    from ``memo``, keyed by the endpoints' bytes)."""
+    """E⁺ per joint (K, nq) of the straight edges P[I] → P[J] timed by the roadmap rule,
+    whether each is feasible by the roadmap's rules (docs/design.md §4e), and how many
+    were simulated (the others come from ``memo``, shared with
+    :func:`~mpd_pin.motion.energy.trajectory_energy`)."""
     from ..planning.roadmap import feasibility
+    from .energy import _outcomes
 
     Q0, Q1 = P[I], P[J]
     memo = {} if memo is None else memo
-    keys = [a.tobytes() + b.tobytes() for a, b in zip(Q0, Q1, strict=True)]
-    new = np.array([k not in memo for k in keys], dtype=bool)
-    if new.any():
-        T, _ = options.timing(Q0[new], Q1[new], drive.arm.model.velocityLimit)
-        out = edge_outcomes(drive, Q0[new], Q1[new], T, dt)
-        over, missed = feasibility(out, options, drive.arm.model)
-        ok = ~missed & (~over if effort_on else True)
-        for r, k in enumerate(np.flatnonzero(new)):
-            memo[keys[k]] = (np.asarray(out.energy[r]), bool(ok[r]))
-    E = np.array([memo[k][0] for k in keys]).reshape(len(keys), P.shape[1])
-    ok = np.array([memo[k][1] for k in keys], dtype=bool)
-    return E, ok, int(new.sum())
+    T, _ = options.timing(Q0, Q1, drive.arm.model.velocityLimit)
+    before = sum(1 for k in memo if k[0] == "outcome")
+    out = _outcomes(drive, Q0, Q1, T, dt, memo)
+    fresh = sum(1 for k in memo if k[0] == "outcome") - before
+    over, missed = feasibility(out, options, drive.arm.model)
+    ok = ~missed & (~over if effort_on else True)
+    return np.asarray(out.energy), ok, fresh
 
 
 def _dp(n: int, I: np.ndarray, J: np.ndarray, cost: np.ndarray, max_edges: int) -> list[int]:
@@ -113,6 +109,11 @@ def _dp(n: int, I: np.ndarray, J: np.ndarray, cost: np.ndarray, max_edges: int) 
         seq.append(int(prev[c, seq[-1]]))
         c -= 1
     return seq[::-1]
+
+
+#: Relative accuracy trusted to the perfect-tracking screen: a lazy DP stops when the best
+#: answer it could still find is not cheaper than its simulated one by more than this.
+SCREEN_TOL = 5e-3
 
 
 def ideal_costs(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray,
@@ -178,7 +179,13 @@ def lazy_sequence(drive: Drive, P: np.ndarray, I: np.ndarray, J: np.ndarray, kno
             cost[uns] = np.where(ok, E.sum(axis=1), np.inf)
             if not ok.all():
                 continue
-            continue  # the true costs may change the DP's answer: run it again
+            # the true costs may change the DP's answer: run it again, unless the best it
+            # could now find is within the screen's accuracy of this simulated answer
+            again = _dp(P.shape[0], I, J, cost, max_edges)
+            e2 = [index[(a, b)] for a, b in zip(again[:-1], again[1:], strict=True)]
+            if again == seq or cost[e2].sum() > cost[e].sum() * (1.0 - SCREEN_TOL):
+                return seq, np.array([done[x] for x in e.tolist()]), checked, simulated
+            continue
         return seq, np.array([done[x] for x in e.tolist()]), checked, simulated
 
 

@@ -8,6 +8,7 @@ every sample of trajectory.csv (brute force), the trapezoid integral of the CSV'
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -155,7 +156,8 @@ def _toml(tmp_path: Path, base: str, motion: str) -> Path:
     ("max_duration = -2.0", "motion.max_duration"),
     ("max_duraton = 5.0", "max_duraton"),
     ('max_duration = 0.2\nrefine = true\nexecution = "auto"',
-     "motion.max_duration: 0.2 s is shorter than the fastest feasible motion, 0.500 s"),
+     "motion.max_duration: 0.2 s is shorter than the fastest motion the velocity limits "
+     "allow, "),
 ])
 def test_bad_motion_settings_are_one_line_and_exit_2(tmp_path, capsys, motion, words):
     path = _toml(tmp_path, "case1", motion)
@@ -165,6 +167,8 @@ def test_bad_motion_settings_are_one_line_and_exit_2(tmp_path, capsys, motion, w
     assert code == 2, err
     assert err.startswith("mpd-pin: error:") and words in err
     assert len(err.strip().splitlines()) == 1
+    if "allow, " in words:  # the minimum it names is above the limit asked for
+        assert float(re.search(r"allow, ([0-9.]+) s", err).group(1)) > 0.2
     assert not out.exists()  # no empty folder left behind
 
 

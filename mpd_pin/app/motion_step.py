@@ -131,7 +131,7 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
         if exc.fastest > opts.max_duration:
             raise ConfigError(
                 f"motion.max_duration: {opts.max_duration:g} s is shorter than the fastest "
-                f"feasible motion, {exc.fastest:.3f} s") from None
+                f"motion the velocity limits allow, {exc.fastest:.3f} s") from None
         raise ConfigError(f"motion.max_duration: {opts.max_duration:g} s: {exc}") from None
     short_motion = None
     if shortest is not None:

@@ -46,7 +46,8 @@ def test_quickstart_returns_a_refined_motion_cheaper_than_the_roadmap_path(quick
     assert rp["nodes"] == r["path"]["nodes"]
     assert m["total_energy"] < 0.9 * rp["total_energy"]
     cands = {c["name"]: c for c in m["refinement"]["candidates"]}
-    assert set(cands) == {"energy optimum", "shortest path"}
+    assert {"energy optimum", "shortest path"} <= set(cands)
+    assert set(cands) - {"energy optimum", "shortest path"} <= {"alternative 1"}
     assert m["refinement"]["candidate"] in cands
     assert m["total_energy"] == pytest.approx(min(c["total_energy"] for c in cands.values()))
     for c in cands.values():  # each step kept only what lowered the stop-and-go energy
@@ -170,6 +171,35 @@ def test_bad_motion_settings_are_one_line_and_exit_2(tmp_path, capsys, motion, w
     if "allow, " in words:  # the minimum it names is above the limit asked for
         assert float(re.search(r"allow, ([0-9.]+) s", err).group(1)) > 0.2
     assert not out.exists()  # no empty folder left behind
+
+
+def test_alternatives_share_no_interior_node(quick_run):
+    """The detour candidates (docs/design.md §9f) against networkx: the shortest path by
+    joint-space length once the interior nodes of the optimum and the shortest path are
+    removed."""
+    import networkx as nx
+
+    from mpd_pin.app.motion_step import alternative_paths
+    from mpd_pin.app.plan import edge_lengths, prepare
+
+    scn, _, r = quick_run
+    setup = prepare(replace(scn, evaluation="lazy"), show_progress=False)
+    rm = setup.roadmap
+    taken = [r["path"]["nodes"], r["comparison"]["shortest_path"]["nodes"]]
+    alt = alternative_paths(rm, taken, 2, scn.arm)
+    assert alt, "quickstart's roadmap has a node-disjoint detour"
+    banned = {v for p in taken for v in p[1:-1]}
+    G = nx.DiGraph()
+    for s, d, w in zip(rm.src, rm.dst, edge_lengths(rm, scn.arm), strict=True):
+        if s not in banned and d not in banned:
+            G.add_edge(int(s), int(d), weight=float(w))
+    ref = nx.shortest_path_length(G, rm.start, rm.goal, weight="weight")
+    got = sum(np.linalg.norm(rm.nodes[b] - rm.nodes[a])
+              for a, b in zip(alt[0][:-1], alt[0][1:], strict=True))
+    assert got == pytest.approx(ref, rel=1e-9)
+    assert not banned & set(alt[0][1:-1])
+    if len(alt) > 1:
+        assert not set(alt[0][1:-1]) & set(alt[1][1:-1])
 
 
 def test_refined_motion_keeps_the_hazard_clearance(tmp_path):

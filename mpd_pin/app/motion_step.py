@@ -123,6 +123,12 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
     cands = {OPTIMUM: roadmap.nodes[plan.path]}
     if opts.refine and shortest is not None and list(shortest.path) != list(plan.path):
         cands[SHORTEST] = roadmap.nodes[shortest.path]
+    if opts.refine and opts.alternatives:
+        taken = [list(plan.path)] + ([list(shortest.path)] if shortest is not None else [])
+        refused = setup.lazy.refused if setup.lazy is not None else None
+        for k, path in enumerate(alternative_paths(roadmap, taken, opts.alternatives,
+                                                   drive.arm, refused)):
+            cands[f"alternative {k + 1}"] = roadmap.nodes[path]
     try:
         refined = refine_candidates(drive, checker, scn.options, cands, opts)
     except NoFeasibleMotion as exc:
@@ -148,6 +154,42 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
             f"({len(cands)} candidate{'s' if len(cands) > 1 else ''})")
     series = motion_series(drive, refined.motion, scn.options.dt)
     return RunMotion(refined.motion, series, refined, short_motion, note)
+
+
+def alternative_paths(roadmap, taken: list[list[int]], count: int, arm,
+                      refused: np.ndarray | None = None) -> list[list[int]]:
+    """Up to ``count`` roadmap paths from start to goal that share no interior node with
+    the paths ``taken`` nor with each other: each the shortest in joint space (scipy's
+    Dijkstra on the edge lengths) once those nodes are removed — a detour in another
+    homotopy class where the roadmap has one (docs/design.md §9f). Edges ``refused`` by a
+    lazy roadmap (a mask) are left out."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    from .plan import edge_lengths
+
+    n = roadmap.num_nodes
+    length = edge_lengths(roadmap, arm)
+    keep = np.ones(roadmap.num_edges, dtype=bool) if refused is None else ~refused
+    banned = {v for p in taken for v in p[1:-1]}
+    out: list[list[int]] = []
+    for _ in range(count):
+        ok = keep & ~np.isin(roadmap.src, list(banned)) & ~np.isin(roadmap.dst, list(banned))
+        if not ok.any():
+            break
+        G = csr_matrix((length[ok] + 1e-12, (roadmap.src[ok], roadmap.dst[ok])), shape=(n, n))
+        dist, pred = dijkstra(G, indices=roadmap.start, return_predecessors=True)
+        if not np.isfinite(dist[roadmap.goal]):
+            break
+        path = [int(roadmap.goal)]
+        while path[-1] != roadmap.start:
+            path.append(int(pred[path[-1]]))
+        path.reverse()
+        if len(path) < 3:  # the direct edge: nothing new to offer
+            break
+        out.append(path)
+        banned |= set(path[1:-1])
+    return out
 
 
 def roadmap_path_record(setup: Setup, plan: PlanResult, arm) -> dict[str, Any]:

@@ -42,7 +42,9 @@ class MotionOptions:
     "nonstop"; refine: shortcut the candidates where energy drops (False: the roadmap
     path as it is); max_duration: the longest motion allowed (s; None: no limit);
     interior: points inside each segment a shortcut may start or end at; max_rounds:
-    shortcut rounds per candidate; seed: of the via-point relaxation (reproducible).
+    shortcut rounds per candidate; seed: of the via-point relaxation (reproducible);
+    alternatives: extra roadmap paths refined besides the energy optimum and the shortest
+    path (node-disjoint detours, docs/design.md §9f).
     """
 
     execution: str = "auto"
@@ -51,6 +53,7 @@ class MotionOptions:
     interior: int = 3
     max_rounds: int = 2
     seed: int = 0
+    alternatives: int = 1
 
     def __post_init__(self) -> None:
         if self.execution not in EXECUTIONS:
@@ -63,6 +66,9 @@ class MotionOptions:
             raise ValueError(f"max_duration must be a number > 0 (s), got {self.max_duration!r}")
         if int(self.interior) != self.interior or self.interior < 0:
             raise ValueError(f"interior must be a non-negative integer, got {self.interior!r}")
+        if int(self.alternatives) != self.alternatives or self.alternatives < 0:
+            raise ValueError(f"alternatives must be a non-negative integer, "
+                             f"got {self.alternatives!r}")
         if int(self.max_rounds) != self.max_rounds or self.max_rounds < 1:
             raise ValueError(f"max_rounds must be a positive integer, got {self.max_rounds!r}")
 
@@ -85,6 +91,23 @@ class RefinedMotion:
                 "seconds": self.seconds, "cpu_seconds": self.cpu_seconds}
 
 
+def _refine_one(drive: Drive, W: np.ndarray, checker: Any, options: Any,
+                motion: MotionOptions, memo: dict, rec: dict[str, Any]) -> np.ndarray:
+    """One candidate's pipeline (docs/design.md §9e): shortcut, relax the via points,
+    shortcut again; its stop-and-go E⁺ (J) after each step go into ``rec``."""
+    sc = shortcut_path(drive, W, checker, options, interior=motion.interior,
+                       max_rounds=motion.max_rounds, memo=memo)
+    rx = relax_path(drive, sc.waypoints, checker, options, seed=motion.seed, memo=memo)
+    sc2 = shortcut_path(drive, rx.waypoints, checker, options, interior=motion.interior,
+                        max_rounds=1, memo=memo)
+    rec.update(stop_energy_in=sc.initial_energy, stop_energy_shortcut=sc.total_energy,
+               stop_energy_relaxed=rx.total_energy, stop_energy_out=sc2.total_energy,
+               shortcut_rounds=sc.rounds + sc2.rounds, via_points_moved=rx.moves,
+               pairs_checked=sc.pairs_checked + sc2.pairs_checked,
+               edges_simulated=sc.edges_simulated + rx.edges_simulated + sc2.edges_simulated)
+    return sc2.waypoints
+
+
 def refine_candidates(
     drive: Drive,
     checker: Any,
@@ -105,18 +128,12 @@ def refine_candidates(
         W = np.asarray(W, dtype=float)
         rec: dict[str, Any] = {"name": name, "waypoints_in": int(W.shape[0])}
         if motion.refine and W.shape[0] > 2:
-            sc = shortcut_path(drive, W, checker, options, interior=motion.interior,
-                               max_rounds=motion.max_rounds, memo=memo)
-            rx = relax_path(drive, sc.waypoints, checker, options, seed=motion.seed, memo=memo)
-            sc2 = shortcut_path(drive, rx.waypoints, checker, options,
-                                interior=motion.interior, max_rounds=1, memo=memo)
-            rec.update(stop_energy_in=sc.initial_energy, stop_energy_shortcut=sc.total_energy,
-                       stop_energy_relaxed=rx.total_energy, stop_energy_out=sc2.total_energy,
-                       shortcut_rounds=sc.rounds + sc2.rounds, via_points_moved=rx.moves,
-                       pairs_checked=sc.pairs_checked + sc2.pairs_checked,
-                       edges_simulated=sc.edges_simulated + rx.edges_simulated
-                       + sc2.edges_simulated)
-            W = sc2.waypoints
+            try:
+                W = _refine_one(drive, W, checker, options, motion, memo, rec)
+            except ValueError as exc:  # no feasible sequence through its own segments
+                rec.update(feasible=False, reason=str(exc))
+                records.append(rec)
+                continue
         me = trajectory_energy(drive, W, motion.execution, options=options, checker=checker,
                                max_duration=motion.max_duration, memo=memo)
         rec.update(waypoints=int(me.waypoints.shape[0]), execution=me.execution,
@@ -128,9 +145,9 @@ def refine_candidates(
         by_name[name] = me
     feasible = [n for n, m in by_name.items() if m.feasible]
     if not feasible:
-        why = "; ".join(f"{n}: {m.reason}" for n, m in by_name.items())
-        fastest = min(min(m.fastest, m.alternative.fastest if m.alternative else np.inf)
-                      for m in by_name.values())
+        why = "; ".join(f"{r['name']}: {r.get('reason', '')}" for r in records)
+        fastest = min((min(m.fastest, m.alternative.fastest if m.alternative else np.inf)
+                       for m in by_name.values()), default=np.inf)
         raise NoFeasibleMotion(f"no feasible motion among the candidates ({why})", fastest)
     best = min(feasible, key=lambda n: by_name[n].total_energy)
     return RefinedMotion(by_name[best], best, records, time.perf_counter() - w0,

@@ -87,7 +87,7 @@ def test_stop_refuses_a_colliding_segment(quick):
     me = trajectory_energy(drive, [scn.start, scn.goal], "stop", options=scn.options,
                            checker=checker)
     assert not checker.edges_free(scn.start[None], scn.goal[None], 0.05)[0]
-    assert not me.feasible and "segment 0" in me.reason
+    assert not me.feasible and "from waypoint 1 to 2" in me.reason
 
 
 # ----------------------------------------------------------------------------- spline
@@ -380,7 +380,7 @@ def test_trajectory_energy_rejects_bad_waypoints(quick):
     _, drive, _ = quick
     with pytest.raises(ValueError, match="shape"):
         trajectory_energy(drive, np.zeros((3, 2)))
-    with pytest.raises(ValueError, match="row 1"):
+    with pytest.raises(ValueError, match="row 2"):
         trajectory_energy(drive, [[0, 0, 0], [0, math.nan, 0]])
     with pytest.raises(ValueError, match="two distinct"):
         trajectory_energy(drive, [[0, 0, 0], [0, 0, 0]])

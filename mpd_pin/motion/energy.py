@@ -82,6 +82,8 @@ class MotionEnergy:
     alternative: MotionEnergy | None = None
     #: the shortest duration this execution allows for these waypoints (s)
     fastest: float = 0.0
+    #: a straight segment between the waypoints failed the certified check
+    colliding: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON data (docs/design.md §9d)."""
@@ -116,7 +118,8 @@ def check_waypoints(drive: Drive, waypoints: Any) -> np.ndarray:
                          f"got {W.shape}")
     bad = np.flatnonzero(~np.isfinite(W).all(axis=1))
     if bad.size:
-        raise ValueError(f"waypoint row {int(bad[0])} contains NaN or infinity")
+        raise ValueError(f"waypoint row {int(bad[0]) + 1} (counting from 1) contains NaN or "
+                         "infinity")
     arm = drive.arm
     if arm.continuous_joints:
         W = W.copy()
@@ -177,18 +180,19 @@ def _stop(drive: Drive, W: np.ndarray, dt: float, options, checker, effort_on: b
     if err > options.arrival_tolerance:
         reasons.append(f"ends {err:.3g} rad from a waypoint (tolerance "
                        f"{options.arrival_tolerance:g})")
-    if options.velocity_limits is False:
-        vel = vel  # reported, not enforced, as in the roadmap
-    elif vel > 1.0 + 1e-9:
+    if options.velocity_limits and vel > 1.0 + 1e-9:  # reported always, enforced if asked
         reasons.append(f"velocity limit exceeded ({vel:.3g}×)")
     if checker is not None:
         free = checker.edges_free(Q0, Q1, options.resolution)
         if not free.all():
-            reasons.append(f"segment {int(np.flatnonzero(~free)[0])} is not collision-free")
+            k = int(np.flatnonzero(~free)[0])
+            reasons.append(f"the segment from waypoint {k + 1} to {k + 2} (counting from 1) "
+                           "is not collision-free")
     m = W.shape[0] - 1
+    colliding = checker is not None and not free.all()
     return MotionEnergy("stop", W, energy, float(energy.sum()), float(T.sum()), err, vel, eff,
                         not reasons, m - 1, [(i, i + 1) for i in range(m)], T,
-                        "; ".join(reasons), fastest=float(T.sum()))
+                        "; ".join(reasons), fastest=float(T.sum()), colliding=colliding)
 
 
 # ----------------------------------------------------------------------------- non-stop
@@ -383,7 +387,7 @@ def _certified_pieces(W: np.ndarray, checker, resolution: float, vlim: np.ndarra
 def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_duration,
              effort_on: bool, stop: MotionEnergy | None) -> MotionEnergy:
     vlim, _ = _limits(drive)
-    if checker is not None and stop is not None and "collision" in stop.reason:
+    if stop is not None and stop.colliding:
         parts = [(0, W.shape[0] - 1)]  # the polyline itself collides: nothing to certify
     else:
         parts = _certified_pieces(W, checker, options.resolution, vlim)
@@ -413,7 +417,7 @@ def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_durat
             eff, row["effort"])
         if len(parts) == 1:
             curve, ideal = cv, row["ideal"]
-    if checker is not None and stop is not None and "collision" in stop.reason:
+    if stop is not None and stop.colliding:
         reasons.append(stop.reason)
     stops = len(parts) - 1
     return MotionEnergy("nonstop", W, energy, float(energy.sum()), float(np.sum(durations)),

@@ -435,19 +435,15 @@ class CollisionChecker:
         return displacement_bounds(self.bounds, q0, q1)
 
     def _certify(self, Q0: np.ndarray, Q1: np.ndarray, h0: float, parallel: bool) -> np.ndarray:
-        require_supported(self.bounds)
-        if self._cert is None:
-            self._cert = certification_model(
-                self.model, self.geometry, self._pool, self.num_threads,
-                hulls=self.certify_on_hulls,
-            )
+        cert = self._cert_model()
         ok, self.last_certify_stats = certify(
-            self.model, self.data, self._exact, self._cert, self._levels, self._state,
+            self.model, self.data, self._exact, cert, self._levels, self._state,
             self.bounds, Q0, Q1, h0, self.min_step, self._pools if parallel else None,
         )
         return ok
 
-    def _cert_model(self):
+    def _cert_model(self) -> CertificationModel:
+        """The certification geometry (convex hulls where they fit), built on first use."""
         require_supported(self.bounds)
         if self._cert is None:
             self._cert = certification_model(

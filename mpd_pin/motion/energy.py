@@ -319,23 +319,28 @@ def ideal_nonstop(drive: Drive, vs: ViaSpline, durations: np.ndarray, samples: i
     return energy, np.max(np.abs(iff), axis=0) * drive.torque_per_amp
 
 
-def _first_failure(checker, vs: ViaSpline, resolution: float, min_step: float = 1e-6
-                   ) -> float | None:
-    """Certify the spline's whole curve (joint-space boxes from its Bernstein hulls,
-    :func:`~mpd_pin.motion.spline.arc_boxes`); None if free, else the unit time (s) of the
-    first sub-arc that is in collision or too close to call."""
-    a, b = pieces(vs)
-    h = float(resolution)
-    while True:  # split until every box fits level h
+def _fit(checker, vs: ViaSpline, a: np.ndarray, b: np.ndarray, h: float):
+    """Split the sub-arcs [a, b] (unit time, s) until each one's Bernstein box fits level
+    ``h`` (rad); returns a, b (sorted) and the boxes' centres and half-widths."""
+    while True:
         C, D = arc_boxes(vs, a, b)
         big = checker.box_sizes(C, D) > h
         if not big.any():
-            break
+            return a, b, C, D
         mid = (a[big] + b[big]) / 2
         a = np.concatenate([a[~big], a[big], mid])
         b = np.concatenate([b[~big], mid, b[big]])
         order = np.argsort(a)
         a, b = a[order], b[order]
+
+
+def _first_failure(checker, vs: ViaSpline, resolution: float, min_step: float = 1e-6
+                   ) -> float | None:
+    """Certify the spline's whole curve (joint-space boxes from its Bernstein hulls,
+    :func:`~mpd_pin.motion.spline.arc_boxes`); None if free, else the unit time (s) of the
+    first sub-arc that is in collision or too close to call."""
+    h = float(resolution)
+    a, b, C, D = _fit(checker, vs, *pieces(vs), h)
     while a.size:
         clear, hit = checker.boxes_clear(C, D, h)
         if hit.any():
@@ -347,19 +352,7 @@ def _first_failure(checker, vs: ViaSpline, resolution: float, min_step: float = 
         if h < min_step:
             return float(a[0])
         mid = (a + b) / 2
-        a, b = np.concatenate([a, mid]), np.concatenate([mid, b])
-        order = np.argsort(a)
-        a, b = a[order], b[order]
-        while True:
-            C, D = arc_boxes(vs, a, b)
-            big = checker.box_sizes(C, D) > h
-            if not big.any():
-                break
-            mid = (a[big] + b[big]) / 2
-            a = np.concatenate([a[~big], a[big], mid])
-            b = np.concatenate([b[~big], mid, b[big]])
-            order = np.argsort(a)
-            a, b = a[order], b[order]
+        a, b, C, D = _fit(checker, vs, np.concatenate([a, mid]), np.concatenate([mid, b]), h)
     return None
 
 

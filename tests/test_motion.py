@@ -365,6 +365,23 @@ def test_refine_picks_the_cheapest_candidate(quick, free_path):
     assert out.motion.total_energy == pytest.approx(min(e.values()))
 
 
+def test_optional_candidates_are_pruned_after_their_shortcut(quick, free_path, monkeypatch):
+    import mpd_pin.motion.refine as refine
+
+    scn, drive, checker = quick
+    W2 = np.vstack([free_path[:1], (free_path[:1] + free_path[1:2]) / 2, free_path[1:]])
+    monkeypatch.setattr(refine, "PRUNE", 0.0)  # any detour costs more than 0 × the best
+    out = refine_candidates(drive, checker, scn.options, {"a": free_path, "b": W2},
+                            MotionOptions(), optional=frozenset({"b"}))
+    rec = {r["name"]: r for r in out.candidates}
+    assert rec["b"]["reason"].startswith("pruned") and "stop_energy_relaxed" not in rec["b"]
+    assert out.candidate == "a" and "b" not in out.by_name
+    monkeypatch.setattr(refine, "PRUNE", 1e9)  # never: both refined and priced
+    out = refine_candidates(drive, checker, scn.options, {"a": free_path, "b": W2},
+                            MotionOptions(), optional=frozenset({"b"}))
+    assert set(out.by_name) == {"a", "b"}
+
+
 @pytest.mark.parametrize("bad, what", [
     ({"execution": "fast"}, "execution"),
     ({"max_duration": -1.0}, "max_duration"),

@@ -129,8 +129,9 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
         for k, path in enumerate(alternative_paths(roadmap, taken, opts.alternatives,
                                                    drive.arm, refused)):
             cands[f"alternative {k + 1}"] = roadmap.nodes[path]
+    detours = frozenset(n for n in cands if n.startswith("alternative"))
     try:
-        refined = refine_candidates(drive, checker, scn.options, cands, opts)
+        refined = refine_candidates(drive, checker, scn.options, cands, opts, optional=detours)
     except NoFeasibleMotion as exc:
         if opts.max_duration is None:
             raise

@@ -91,12 +91,26 @@ class RefinedMotion:
                 "seconds": self.seconds, "cpu_seconds": self.cpu_seconds}
 
 
+#: An optional candidate (a detour) whose shortcut costs more than this factor times the
+#: best shortcut so far is not refined further (its relaxation and pricing are skipped).
+PRUNE = 1.1
+
+
+class _Pruned(Exception):
+    """An optional candidate left after its shortcut (see :data:`PRUNE`)."""
+
+
 def _refine_one(drive: Drive, W: np.ndarray, checker: Any, options: Any,
-                motion: MotionOptions, memo: dict, rec: dict[str, Any]) -> np.ndarray:
+                motion: MotionOptions, memo: dict, rec: dict[str, Any],
+                bar: float = np.inf) -> np.ndarray:
     """One candidate's pipeline (docs/design.md §9e): shortcut, relax the via points,
-    shortcut again; its stop-and-go E⁺ (J) after each step go into ``rec``."""
+    shortcut again; its stop-and-go E⁺ (J) after each step go into ``rec``. Raises
+    :class:`_Pruned` when the shortcut's E⁺ is above ``bar`` (J)."""
     sc = shortcut_path(drive, W, checker, options, interior=motion.interior,
                        max_rounds=motion.max_rounds, memo=memo)
+    rec.update(stop_energy_in=sc.initial_energy, stop_energy_shortcut=sc.total_energy)
+    if sc.total_energy > bar:
+        raise _Pruned
     rx = relax_path(drive, sc.waypoints, checker, options, seed=motion.seed, memo=memo)
     sc2 = shortcut_path(drive, rx.waypoints, checker, options, interior=motion.interior,
                         max_rounds=1, memo=memo)
@@ -114,12 +128,15 @@ def refine_candidates(
     options: Any,
     candidates: dict[str, np.ndarray],
     motion: MotionOptions | None = None,
+    optional: frozenset[str] = frozenset(),
 ) -> RefinedMotion:
     """The cheapest feasible motion over ``candidates`` (name → certified waypoints (m+1, nq)
     rad, in order of preference on ties) under ``motion``; ``options``: the roadmap's
     :class:`~mpd_pin.planning.roadmap.RoadmapOptions` (timing, limits, dt, resolution);
-    ``checker`` certifies every new segment and non-stop curve. ValueError when no
-    candidate gives a feasible motion (its reasons in the message)."""
+    ``checker`` certifies every new segment and non-stop curve. Candidates named in
+    ``optional`` (detours; list them last) stop after their shortcut when it costs more
+    than :data:`PRUNE` times the best shortcut before them. ValueError when no candidate
+    gives a feasible motion (its reasons in the message)."""
     motion = motion or MotionOptions()
     w0, c0 = time.perf_counter(), time.process_time()
     memo: dict = {}
@@ -128,8 +145,17 @@ def refine_candidates(
         W = np.asarray(W, dtype=float)
         rec: dict[str, Any] = {"name": name, "waypoints_in": int(W.shape[0])}
         if motion.refine and W.shape[0] > 2:
+            bar = np.inf
+            if name in optional:
+                done = [r["stop_energy_shortcut"] for r in records if "stop_energy_shortcut" in r]
+                bar = PRUNE * min(done, default=np.inf)
             try:
-                W = _refine_one(drive, W, checker, options, motion, memo, rec)
+                W = _refine_one(drive, W, checker, options, motion, memo, rec, bar)
+            except _Pruned:
+                rec.update(feasible=False, reason=f"pruned: its shortcut costs more than "
+                           f"{PRUNE:g}× the best before it")
+                records.append(rec)
+                continue
             except ValueError as exc:  # no feasible sequence through its own segments
                 rec.update(feasible=False, reason=str(exc))
                 records.append(rec)

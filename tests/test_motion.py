@@ -354,6 +354,22 @@ def test_shortcut_lowers_energy_and_stays_certified(quick, quick_roadmap):
     np.testing.assert_allclose(me.energy_per_joint, res.energy_per_joint, rtol=1e-12)
 
 
+def test_relaxation_keeps_only_a_real_improvement(quick, free_path, monkeypatch):
+    """The screen is trusted only as far as the final simulation confirms it: with a screen
+    that prefers the costliest candidates, the relaxed path would cost more, and the path
+    given comes back unchanged; with the true screen the energy falls."""
+    import mpd_pin.motion.relax as relax
+
+    scn, drive, checker = quick
+    good = relax.relax_path(drive, free_path, checker, scn.options, rounds=2)
+    assert good.total_energy < good.initial_energy and good.moves > 0
+    true_screen = relax.ideal_costs
+    monkeypatch.setattr(relax, "ideal_costs", lambda *a, **k: -true_screen(*a, **k))
+    bad = relax.relax_path(drive, free_path, checker, scn.options, rounds=2)
+    np.testing.assert_array_equal(bad.waypoints, free_path)
+    assert bad.total_energy == pytest.approx(bad.initial_energy) and bad.moves == 0
+
+
 def test_refine_picks_the_cheapest_candidate(quick, free_path):
     scn, drive, checker = quick
     W = free_path

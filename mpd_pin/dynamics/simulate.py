@@ -329,7 +329,7 @@ def _reference_table(drive: Drive, Q0, DQ, half, T, s, sd, pool, threads: int):
 @np.errstate(over="ignore", invalid="ignore")  # divergence is detected and reported below
 def _integrate_batch(
     drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, N: np.ndarray, h: float,
-    threads: int,
+    threads: int, *, record: bool = False,
 ):
     """RK4 on K edges with step ``h`` (s), edge k lasting T[k] = N[k]·h; returns the
     :class:`EdgeOutcomes` arrays (E⁺, E, end error, end velocity, peak torque), each (K, nq).
@@ -353,7 +353,7 @@ def _integrate_batch(
     s, sd, _, _ = (_per_edge(a) for a in quintic(half, T))
     pool = _pool(drive, threads)
     W, i0 = _reference_table(drive, Q0, DQ, half, T, s, sd, pool, threads)
-    return integrate_tables(drive, Q0, Q1, W, i0, N, h, threads, pool)
+    return integrate_tables(drive, Q0, Q1, W, i0, N, h, threads, pool, record=record)
 
 
 @dataclass(frozen=True)

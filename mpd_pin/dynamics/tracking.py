@@ -4,7 +4,11 @@ docs/design.md §3e. The reference of K motions is given on the half-step grid
 t = j·h/2 as tables (nt, K, nq) — q_ref, q̇_ref, q̈_ref, q⃛_ref — from which
 :func:`feedforward_tables` makes the feed-forward voltage V_ff and current i_ff
 (τ_ff and τ̇_ff by RNEA and its derivative), and :func:`integrate_tables` integrates
-the motor-augmented ODE with classic RK4 through ``pin.abaInParallel``. The rest-to-rest
+the motor-augmented ODE with classic RK4 through ``pin.abaInParallel``. The state of
+all motions is one preallocated array X = [q, q̇, i, E⁺, E] of shape (5, K, nq) (each
+row block C-contiguous, so its transpose is the (nq, K) Fortran array Pinocchio wants);
+stage derivatives are written in place, the accelerations straight into them by
+``abaInParallel``; a stage computes V = sat(W − Kp q − Kd q̇). The rest-to-rest
 quintic edges of :mod:`mpd_pin.dynamics.simulate` and the non-stop motions of
 :mod:`mpd_pin.motion` are two ways of filling these tables; the integration is one.
 """
@@ -85,12 +89,7 @@ def integrate_tables(
     holds its end); i0 (K, nq): initial currents (A). Returns the
     :class:`~mpd_pin.dynamics.simulate.EdgeOutcomes` arrays (E⁺, E, end error, end
     velocity, peak torque), each (K, nq), and with ``record`` a :class:`TrackedSeries`.
-
-    The state of all motions is one preallocated array X = [q, q̇, i, E⁺, E] of shape
-    (5, K, nq) (each row block C-contiguous, so its transpose is the (nq, K) Fortran
-    array Pinocchio wants); stage derivatives are written in place, the accelerations
-    straight into them by ``abaInParallel``; a stage computes V = sat(W − Kp q − Kd q̇).
-    Each row is computed exactly as if alone (rows never mix).
+    Each row is computed exactly as if alone (rows never mix; layout: module docstring).
     """
     K, nq = Q0.shape
     N = np.asarray(N, dtype=np.int64)
@@ -192,10 +191,16 @@ def integrate_tables(
         if idx is not None:
             for arr, now in zip(result, (X[3], X[4], X[0] - Q1, X[1], peak_i), strict=True):
                 arr[idx] = now[idx]
-    result[4] *= drive.torque_per_amp
     if rec is not None:  # the last sample and its voltage
         stage(2 * n_max, X, k1)
         _record(rec, n_max, X, V)
+    return _finish(result, rec, drive.torque_per_amp)
+
+
+def _finish(result: list[np.ndarray], rec: list[np.ndarray] | None, torque_per_amp):
+    """Peak current → peak torque (N·m), the divergence check, and the return value of
+    :func:`integrate_tables`."""
+    result[4] *= torque_per_amp
     if not (np.all(np.isfinite(result[0])) and np.all(np.isfinite(result[2]))):
         raise ValueError("integration diverged on some edges; reduce dt or the gains")
     if rec is not None:

@@ -13,8 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..dynamics.motor import Drive
-from ..dynamics.simulate import quintic, step_count
-from ..dynamics.tracking import _pool, integrate_tables
+from ..dynamics.simulate import step_count
 from .energy import MotionEnergy, _simulate_nonstop
 from .spline import unit_knots, via_spline
 
@@ -25,15 +24,10 @@ def _stop_edges(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, dt:
     """(t, q, v, i, V, energy_t, via times) of each rest-to-rest quintic edge, one batch."""
     import os
 
-    from ..dynamics.simulate import _per_edge, _reference_table
+    from ..dynamics.simulate import _integrate_batch
 
-    threads = int(os.cpu_count() or 1)
     N = np.array([step_count(float(x), dt) for x in T], dtype=np.int64)
-    half = np.minimum(np.arange(2 * int(N.max()) + 1)[:, None] / (2 * N)[None, :], 1.0)
-    s, sd, _, _ = (_per_edge(a) for a in quintic(half, T))
-    pool = _pool(drive, threads)
-    Wt, i0 = _reference_table(drive, Q0, Q1 - Q0, half, T, s, sd, pool, threads)
-    _, rec = integrate_tables(drive, Q0, Q1, Wt, i0, N, dt, threads, pool, record=True)
+    _, rec = _integrate_batch(drive, Q0, Q1, T, N, dt, int(os.cpu_count() or 1), record=True)
     for k, n in enumerate(N.tolist()):
         t = np.arange(n + 1) * dt
         yield (t, rec.q[: n + 1, k], rec.v[: n + 1, k], rec.i[: n + 1, k], rec.V[: n + 1, k],

@@ -39,10 +39,26 @@ _LAZY = {
     "simulate_edge": "dynamics",
     "sized_motors": "dynamics",
     "MotionEnergy": "motion",
+    "MotionOptions": "motion",
     "trajectory_energy": "motion",
+    "World": "world",
+    "Box": "world",
+    "Cylinder": "world",
+    "Sphere": "world",
+    "Polygon": "world",
+    "Hazard": "world",
+    "RoadmapOptions": "planning.roadmap",
+    "load_scenario": "app.kinds",
+    "Scenario": "app.scenario",
+    "plan": "app.planner",
+    "EnergyPlanner": "app.planner",
+    "Plan": "app.planned",
     "MpdPinError": "errors",
     "NoPathError": "errors",
 }
+
+#: public names defined under another name in their module
+_ALIAS = {"Scenario": "EnergyScenario"}
 
 __all__ = sorted(_LAZY)
 
@@ -53,7 +69,7 @@ def __getattr__(name: str):
         module = _LAZY[name]
     except KeyError:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
-    value = getattr(_importlib.import_module(f".{module}", __name__), name)
+    value = getattr(_importlib.import_module(f".{module}", __name__), _ALIAS.get(name, name))
     globals()[name] = value
     return value
 

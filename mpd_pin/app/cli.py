@@ -1,10 +1,12 @@
 """The ``mpd-pin`` command.
 
+    mpd-pin --version                       the installed version
     mpd-pin scenarios                       list the built-in scenarios
     mpd-pin show NAME                       print a built-in scenario's TOML (a starting point)
     mpd-pin run NAME|FILE --out DIR         plan a scenario, write result.json, plots, replay.html
         [--seed N] [--planner NAME]         (planners: mpd_pin.search.PLANNERS, listed by --help)
         [--evaluation lazy|eager]           (override [roadmap] evaluation)
+        [--nodes N] [--execution auto|stop|nonstop] [--no-refine] [--quiet] [--no-replay]
         [--cache FILE] [--scheduler ADDRESS|local[:N]]   roadmap file; Dask cluster (§4h)
     mpd-pin energy NAME|FILE PATHFILE       price a path planned elsewhere (CSV or JointTrajectory
         [--execution auto|stop|nonstop]     JSON, :mod:`mpd_pin.app.pathfile`) with the
@@ -78,36 +80,31 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    """Plan a scenario (energy scenarios: :func:`mpd_pin.app.planner.configure` applies the
+    overrides, :func:`~mpd_pin.app.runner.run_energy_scenario` plans and saves) and print
+    its one line."""
     from .kinds import load_scenario, run_scenario, summary_line
 
     scn = load_scenario(args.scenario, seed=args.seed, planner=args.planner)
-    if args.evaluation is not None:
+    flags = {"--evaluation": args.evaluation, "--scheduler": args.scheduler,
+             "--execution": args.execution, "--no-refine": args.no_refine or None,
+             "--nodes": args.nodes}
+    given = [flag for flag, value in flags.items() if value is not None]
+    if given:
         if getattr(scn, "kind", None) != "energy":
-            raise ConfigError(f"--evaluation does not apply to {args.scenario!r}, a "
-                              f"{getattr(scn, 'kind', '?')} scenario (no energy roadmap)")
-        from dataclasses import replace
+            names, one = ", ".join(given), len(given) == 1
+            raise ConfigError(f"{names} {'does' if one else 'do'} not apply to "
+                              f"{args.scenario!r}, a {getattr(scn, 'kind', '?')} scenario (no "
+                              f"energy roadmap): {names} appl{'ies' if one else 'y'} to energy "
+                              "scenarios")
+        from .planner import configure
 
-        scn = replace(scn, evaluation=args.evaluation)
-    if args.scheduler is not None:
-        from dataclasses import replace
-
-        from ..dynamics.remote import ComputeError, parse_scheduler
-
-        if getattr(scn, "kind", None) != "energy":
-            raise ConfigError("--scheduler applies to energy scenarios (roadmap edge energies)")
         try:
-            kind, _ = parse_scheduler(args.scheduler)
-        except ComputeError as exc:
+            scn = configure(scn, evaluation=args.evaluation, scheduler=args.scheduler,
+                            execution=args.execution, refine=False if args.no_refine else None,
+                            num_nodes=args.nodes)
+        except ConfigError as exc:
             raise ConfigError(f"--{exc}") from None
-        scn = replace(scn, scheduler=None if kind == "threads" else args.scheduler)
-    if args.execution is not None or args.no_refine:
-        from dataclasses import replace
-
-        if getattr(scn, "kind", None) != "energy":
-            raise ConfigError("--execution and --no-refine apply to energy scenarios")
-        motion = replace(scn.motion, execution=args.execution or scn.motion.execution,
-                         refine=scn.motion.refine and not args.no_refine)
-        scn = replace(scn, motion=motion)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} exists and is not a directory")
@@ -193,6 +190,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Energy-optimal, collision-free motion planning for robot arms (MPD* Lite).",
         epilog=_planners_help(),
     )
+    from .. import __version__
+
+    parser.add_argument("--version", action="version", version=f"mpd-pin {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("scenarios", help="list the built-in scenarios")
     p.set_defaults(func=cmd_scenarios)
@@ -221,6 +221,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "every waypoint (stop) or one smooth motion (nonstop)")
     p.add_argument("--no-refine", action="store_true",
                    help="return the roadmap path as it is (no energy-aware shortcuts)")
+    p.add_argument("--nodes", type=int, default=None, metavar="N",
+                   help="override [roadmap] num_nodes: the roadmap's random samples (more "
+                        "nodes: better paths, longer runs)")
     p.add_argument("--no-replay", action="store_true", help="skip the meshcat replay.html")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_run)

@@ -67,11 +67,13 @@ from .verify import Verification, straight_line_configurations
 __all__ = [
     "REPLAY_SAMPLES",
     "replay_indices",
+    "make_figures",
     "write_plots",
     "write_replay_html",
     "result_record",
     "comparison_record",
     "write_result",
+    "timing_record",
     "SHORTEST_LABEL",
     "PAPER_MOTOR_SECTION",
     "run_warnings",
@@ -141,16 +143,16 @@ def replay_indices(n: int, target: int = REPLAY_SAMPLES) -> np.ndarray:
     return idx
 
 
-def write_plots(
-    out_dir: Path,
+def make_figures(
     scn: EnergyScenario,
     setup: Setup,
     plan: PlanResult,
     check: Verification,
     shortest: tuple[PlanResult, Verification] | None = None,
     motion: RunMotion | None = None,
-) -> None:
-    """``path.png``, ``joint_angles.png``, ``energy.png`` (paper 000 Figs. 12–17); with
+) -> dict[str, Any]:
+    """The figures of a run by file name: ``path.png``, ``joint_angles.png``,
+    ``energy.png`` (paper 000 Figs. 12–17); with
     ``shortest`` (its plan and re-simulation) the path figure overlays the shortest
     joint-space path and the energy figure shows both cumulative totals. ``check`` holds
     the series of what the arm runs; with a refined ``motion`` (docs/design.md §9f) the
@@ -162,8 +164,6 @@ def write_plots(
 
     if "matplotlib.pyplot" not in sys.modules:  # keep a backend already chosen (a notebook's)
         matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
     from ..viz.plots import (
         Detection,
         plot_arm_path,
@@ -217,9 +217,19 @@ def write_plots(
     if curve is not None:
         figs["energy_duration.png"] = plot_energy_duration(*curve[:3], ideal=curve[3],
                                                            title=scn.name)
+    return figs
+
+
+def write_plots(out_dir: Path, *args: Any, **kwargs: Any) -> list[str]:
+    """Save the figures of :func:`make_figures` (same arguments after ``out_dir``) into
+    ``out_dir`` (110 dpi) and close them; returns the file names."""
+    import matplotlib.pyplot as plt
+
+    figs = make_figures(*args, **kwargs)
     for fname, fig in figs.items():
         fig.savefig(out_dir / fname, dpi=110)
         plt.close(fig)
+    return list(figs)
 
 
 def _duration_curve(motion: RunMotion | None):
@@ -327,7 +337,7 @@ def _roadmap_record(
     }
 
 
-def _timing_record(roadmap: Roadmap, clock: PhaseClock) -> dict[str, Any]:
+def timing_record(roadmap: Roadmap, clock: PhaseClock) -> dict[str, Any]:
     # Wall-clock seconds per phase; the roadmap's own sub-phases (wall-clock) beside them.
     wall = {f"roadmap_{k}": v for k, v in roadmap.timings.items()}
     wall["roadmap_total"] = clock.wall["roadmap"]
@@ -400,7 +410,7 @@ def result_record(
     if setup.lazy is not None:  # lazy: simulated during the searches (docs/design.md §4g)
         setup.roadmap.timings["edge_energies"] = setup.lazy.count.simulate_seconds
         setup.roadmap.timings["edge_bounds"] = setup.lazy.bound_seconds
-    record.update(_timing_record(setup.roadmap, clock))
+    record.update(timing_record(setup.roadmap, clock))
     return record
 
 

@@ -49,6 +49,7 @@ __all__ = [
     "Setup",
     "PlanResult",
     "prepare",
+    "requery",
     "plan_path",
     "plan_shortest",
     "edge_lengths",
@@ -79,6 +80,8 @@ class Setup:
     lazy: LazyEdges | None = None
     cache: Path | None = None
     notes: list[str] = field(default_factory=list)
+    #: the edge-energy interface the roadmap was costed with (later queries use it too)
+    cost: EnergyCost | None = None
 
 
 @dataclass
@@ -130,7 +133,26 @@ def prepare(
     lazy = LazyEdges(roadmap, cost, scn.options) if evaluation == "lazy" else None
     return Setup(drive, world, checker, roadmap, world.to_dict(), cost.compute_record(),
                  evaluation=evaluation, lazy=lazy, cache=None if cache is None else Path(cache),
-                 notes=notes)
+                 notes=notes, cost=cost)
+
+
+def requery(setup: Setup, scn: EnergyScenario, *, show_progress: bool = True) -> Setup:
+    """``setup`` for another query on the same roadmap: ``scn.start`` and ``scn.goal``
+    joined to it (:func:`~mpd_pin.planning.queries.add_query`; docs/design.md §4i). Every
+    node, edge and simulated energy is reused (lazy: the refused edges are left out); the
+    world starts again from its initial map. No roadmap file is written for it."""
+    from ..planning.queries import add_query
+
+    setup.world.reset()
+    lazy = setup.lazy
+    base = setup.roadmap if lazy is None else lazy.roadmap.without_edges(lazy.refused)
+    roadmap = add_query(base, setup.cost, setup.checker, scn.start, scn.goal, scn.options,
+                        evaluate=lazy is None, show_progress=show_progress)
+    return replace(
+        setup, roadmap=roadmap, world_record=setup.world.to_dict(), cache=None,
+        lazy=None if lazy is None else LazyEdges(roadmap, setup.cost, scn.options),
+        notes=list(setup.notes),
+    )
 
 
 def edge_lengths(roadmap: Roadmap, arm: Arm | None = None) -> np.ndarray:

@@ -7,12 +7,14 @@ returned motion.
 """
 
 from .energy import EXECUTIONS, MotionEnergy, check_waypoints, trajectory_energy
+from .refine import MotionOptions
 from .shortcut import ShortcutResult, shortcut_path
 from .spline import ViaSpline, via_spline
 
 __all__ = [
     "EXECUTIONS",
     "MotionEnergy",
+    "MotionOptions",
     "ShortcutResult",
     "ViaSpline",
     "check_waypoints",

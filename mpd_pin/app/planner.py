@@ -1,0 +1,283 @@
+"""The Python front door: :class:`EnergyPlanner`, :func:`plan` and :func:`configure`
+(docs/design.md §8b).
+
+An :class:`EnergyPlanner` is a drive (arm, motors, controller), a world and the
+roadmap, search and motion options. Its first :meth:`~EnergyPlanner.plan` builds the
+roadmap around that query (exactly as ``mpd-pin run`` does, so the same seed gives the
+same numbers); later queries join their start and goal to the same roadmap and reuse
+every collision check and simulated energy (docs/design.md §4i), which makes
+multi-query use and cycles (A → B → C → A, :meth:`~EnergyPlanner.plan_legs`) cheap.
+
+Each query runs the phases of a run (docs/design.md §7c): ``roadmap``, ``search``,
+``verification``, ``comparison``, ``refinement``; the result is a
+:class:`~mpd_pin.app.planned.Plan`, which writes the files only when saved.
+:func:`plan` is one query of a scenario, what ``mpd-pin run`` computes.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..dynamics.motor import Drive
+from ..motion.refine import MotionOptions
+from ..planning.roadmap import RoadmapOptions, npz_path
+from ..search.registry import DEFAULT_PLANNER, PLANNERS
+from ..world import World
+from .config import ConfigError
+from .motion_step import make_motion
+from .outputs import add_motion_comparison, cache_record, comparison_record
+from .plan import plan_path, plan_shortest, prepare, requery
+from .planned import Plan, _Parts
+from .scenario import EVALUATIONS, EnergyScenario
+from .timing import PhaseClock
+from .trajectory import DEFAULT_TRAJECTORY_RATE
+from .verify import verify_path
+
+__all__ = ["EnergyPlanner", "plan", "configure"]
+
+
+def configure(scn: EnergyScenario, *, seed: int | None = None, planner: str | None = None,
+              evaluation: str | None = None, execution: str | None = None,
+              refine: bool | None = None, scheduler: Any = None,
+              num_nodes: int | None = None) -> EnergyScenario:
+    """``scn`` with some settings replaced (None: keep the scenario's): ``[roadmap] seed``,
+    ``num_nodes`` and ``evaluation`` ("lazy"/"eager"), ``[planner] algorithm``,
+    ``[motion] execution`` ("auto"/"stop"/"nonstop") and ``refine``, ``[compute]
+    scheduler`` ("threads", "local[:N]", an address, or a Dask client). ConfigError (one
+    line naming the setting) for a bad value."""
+    from ..motion.energy import EXECUTIONS
+    from .scenario import LIMITS
+
+    if getattr(scn, "kind", None) != "energy":
+        raise ConfigError(f"{getattr(scn, 'name', 'scenario')!r} is a "
+                          f"{getattr(scn, 'kind', '?')} scenario; these settings apply to "
+                          "energy scenarios (an energy roadmap)")
+    options = scn.options
+    if seed is not None:
+        if not (isinstance(seed, (int, np.integer)) and 0 <= seed <= LIMITS["seed"]):
+            raise ConfigError(f"seed: expected an integer in [0, {LIMITS['seed']}], got {seed!r}")
+        options = replace(options, seed=int(seed))
+    if num_nodes is not None:
+        if not (isinstance(num_nodes, (int, np.integer)) and 0 <= num_nodes <= LIMITS[
+                "num_nodes"]):
+            raise ConfigError(f"nodes: expected an integer in [0, {LIMITS['num_nodes']}] (the "
+                              f"roadmap's random samples), got {num_nodes!r}")
+        options = replace(options, num_nodes=int(num_nodes))
+    if planner is not None and planner not in PLANNERS:
+        raise ConfigError(f"planner: {planner!r} is not one of {sorted(PLANNERS)}")
+    if evaluation is not None and evaluation not in EVALUATIONS:
+        raise ConfigError(f"evaluation: {evaluation!r} is not one of {list(EVALUATIONS)}")
+    if execution is not None and execution not in EXECUTIONS:
+        raise ConfigError(f"execution: {execution!r} is not one of {list(EXECUTIONS)}")
+    motion = scn.motion
+    if execution is not None or refine is not None:
+        motion = replace(motion, execution=execution or motion.execution,
+                         refine=motion.refine if refine is None else bool(refine))
+    if isinstance(scheduler, str):
+        from ..dynamics.remote import ComputeError, parse_scheduler
+
+        try:
+            kind, _ = parse_scheduler(scheduler)
+        except ComputeError as exc:
+            raise ConfigError(f"{exc}") from None
+        scheduler = None if kind == "threads" else scheduler
+    elif scheduler is None:
+        scheduler = scn.scheduler
+    return replace(scn, options=options, planner=planner or scn.planner,
+                   evaluation=evaluation or scn.evaluation, motion=motion, scheduler=scheduler)
+
+
+def _configuration(q: Any, nq: int, what: str) -> np.ndarray:
+    """``q`` as (nq,) finite floats (rad; m for prismatic joints), else ValueError."""
+    try:
+        arr = np.asarray(q, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what}: expected {nq} joint values (rad), got {q!r}") from None
+    if arr.shape != (nq,):
+        raise ValueError(f"{what}: expected {nq} joint values (rad), got {arr.size}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{what}: joint values must be finite, got {arr.tolist()}")
+    return arr
+
+
+class EnergyPlanner:
+    """Minimum-energy motions for one arm in one world; the roadmap is built once.
+
+    drive: the :class:`~mpd_pin.Drive` (arm, DC motors, PD + feed-forward controller);
+    world: a :class:`~mpd_pin.World` of obstacles and hazard zones (default: empty);
+    roadmap: :class:`~mpd_pin.RoadmapOptions` (nodes, k, seed, edge timing, dt);
+    evaluation: "lazy" (simulate the edges the search needs) or "eager";
+    planner: a name of ``mpd_pin.search.PLANNERS`` (default MPD* Lite);
+    motion: :class:`~mpd_pin.MotionOptions` (execution, refinement, max_duration s);
+    sensor_range: m, required when the world has hidden obstacles;
+    hazard_penalty: ∞ removes edges too close to a hazard, else their cost factor;
+    scheduler: where edge energies run ("threads", "local[:N]", a Dask address or
+    client); cache: a roadmap ``.npz`` for the first query (reused or written);
+    show_progress: progress bars on stderr; name: the label of results and plots.
+
+    Use it as a context manager (or call :meth:`close`) when ``scheduler`` starts a
+    cluster.
+    """
+
+    def __init__(self, drive: Drive, world: World | None = None, *,
+                 roadmap: RoadmapOptions | None = None, evaluation: str = "lazy",
+                 planner: str = DEFAULT_PLANNER, motion: MotionOptions | None = None,
+                 sensor_range: float | None = None, hazard_penalty: float = math.inf,
+                 scheduler: Any = None, cache: str | os.PathLike | None = None,
+                 show_progress: bool = True, name: str = "plan",
+                 trajectory_rate: float = DEFAULT_TRAJECTORY_RATE) -> None:
+        if not isinstance(drive, Drive):
+            raise TypeError(f"drive must be an mpd_pin.Drive, got {type(drive).__name__}")
+        world = World(()) if world is None else world
+        if not isinstance(world, World):
+            raise TypeError(f"world must be an mpd_pin.World, got {type(world).__name__}")
+        roadmap = RoadmapOptions() if roadmap is None else roadmap
+        if not isinstance(roadmap, RoadmapOptions):
+            raise TypeError("roadmap must be mpd_pin.RoadmapOptions, got "
+                            f"{type(roadmap).__name__}")
+        if world.hidden_names() and sensor_range is None:
+            raise ValueError("sensor_range (m) is required when some obstacles are hidden")
+        scn = EnergyScenario(
+            name=name, description="", arm=drive.arm, motor=drive.motors, kp=drive.kp,
+            kd=drive.kd, feedforward=drive.feedforward, world=world, options=roadmap,
+            start=np.zeros(drive.arm.nq), goal=np.zeros(drive.arm.nq),
+            sensor_range=sensor_range, hazard_penalty=float(hazard_penalty),
+            motion=motion if motion is not None else MotionOptions(), source="python",
+        )
+        self._init(configure(scn, planner=planner, evaluation=evaluation, scheduler=scheduler),
+                   cache, show_progress, trajectory_rate)
+
+    @classmethod
+    def from_scenario(cls, scenario: EnergyScenario, *, cache: str | os.PathLike | None = None,
+                      show_progress: bool = True,
+                      trajectory_rate: float = DEFAULT_TRAJECTORY_RATE) -> EnergyPlanner:
+        """A planner with the drive, world and options of a scenario
+        (:func:`mpd_pin.load_scenario`)."""
+        if getattr(scenario, "kind", None) != "energy":
+            raise ConfigError(f"{getattr(scenario, 'name', 'scenario')!r} is a "
+                              f"{getattr(scenario, 'kind', '?')} scenario; EnergyPlanner plans "
+                              "energy scenarios (run the others with mpd-pin run)")
+        self = cls.__new__(cls)
+        self._init(scenario, cache, show_progress, trajectory_rate)
+        return self
+
+    def _init(self, scn: EnergyScenario, cache, show_progress: bool,
+              trajectory_rate: float) -> None:
+        if not (trajectory_rate > 0 and math.isfinite(trajectory_rate)):
+            raise ConfigError(f"trajectory rate must be a number > 0 (Hz), got "
+                              f"{trajectory_rate!r}")
+        self.scenario = scn
+        self.cache = None if cache is None else Path(cache)
+        self.show_progress = bool(show_progress)
+        self.trajectory_rate = float(trajectory_rate)
+        self._setup = None
+        self._compute = None
+
+    # ------------------------------------------------------------------ resources
+    def open(self) -> EnergyPlanner:
+        """Connect where edge energies run (a cluster that cannot be reached fails here,
+        before any work); :meth:`plan` does it when needed."""
+        if self._compute is None:
+            from ..dynamics.remote import open_compute
+
+            self._compute = open_compute(self.scenario.scheduler)
+        return self
+
+    def close(self) -> None:
+        """Release a cluster this planner started (nothing for threads)."""
+        if self._compute is not None:
+            self._compute.close()
+            self._compute = None
+
+    def __enter__(self) -> EnergyPlanner:
+        return self.open()
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    @property
+    def roadmap(self):
+        """The roadmap (:class:`~mpd_pin.planning.roadmap.Roadmap`) of the last query, or
+        None before the first."""
+        return None if self._setup is None else self._setup.roadmap
+
+    # ------------------------------------------------------------------ queries
+    def plan(self, start: Any, goal: Any) -> Plan:
+        """The minimum-energy motion from ``start`` to ``goal`` (rad, one value per joint):
+        a :class:`~mpd_pin.app.planned.Plan`. ValueError for a configuration outside the
+        limits or in collision; :class:`~mpd_pin.NoPathError` when the roadmap joins
+        none."""
+        from ..dynamics.sizing import check_holding
+
+        base = self.scenario
+        nq = base.arm.nq
+        scn = replace(base, start=_configuration(start, nq, "start"),
+                      goal=_configuration(goal, nq, "goal"))
+        holding = Drive(scn.arm, scn.motor, scn.kp, scn.kd, feedforward=scn.feedforward)
+        for what, q in (("start", scn.start), ("goal", scn.goal)):
+            check_holding(holding, q, what, effort_limits=scn.options.effort_limits)
+        self.open()
+        clock = PhaseClock()
+        with clock.phase("roadmap"):
+            if self._setup is None:
+                reused = self.cache is not None and npz_path(self.cache).exists()
+                self._setup = prepare(scn, cache=self.cache, show_progress=self.show_progress,
+                                      compute=self._compute)
+                cache = cache_record(self.cache, reused)
+            else:
+                self._setup = requery(self._setup, scn, show_progress=self.show_progress)
+                cache = cache_record(None, False)
+        return self._finish(scn, self._setup, clock, cache)
+
+    def plan_legs(self, configurations: Any) -> list[Plan]:
+        """One :class:`~mpd_pin.app.planned.Plan` per leg of the sequence
+        ``configurations`` (m ≥ 2 configurations, rad): q0 → q1, q1 → q2, …; a cycle
+        A → B → C → A is ``[A, B, C, A]``. The energy of leg k is
+        ``legs[k].total_energy`` (J)."""
+        Q = [np.asarray(q, dtype=float) for q in configurations]
+        if len(Q) < 2:
+            raise ValueError(f"plan_legs: expected at least 2 configurations, got {len(Q)}")
+        return [self.plan(a, b) for a, b in zip(Q[:-1], Q[1:], strict=True)]
+
+    def _finish(self, scn: EnergyScenario, setup, clock: PhaseClock,
+                cache: dict[str, Any]) -> Plan:
+        dt = scn.options.dt
+        with clock.phase("search"):
+            result = plan_path(scn, setup)
+        with clock.phase("verification"):
+            check = verify_path(setup.drive, setup.roadmap, result.path, dt, result.energy)
+        with clock.phase("comparison"):
+            short = plan_shortest(scn, setup)
+            short_check = verify_path(setup.drive, setup.roadmap, short.path, dt, short.energy)
+            comparison = comparison_record(scn, setup, result, check, short, short_check)
+        with clock.phase("refinement"):
+            motion = make_motion(scn, setup, result, check, short)
+            moved = motion.check()
+            add_motion_comparison(comparison, motion)
+        clock.finish()
+        return Plan(_Parts(scn, setup, result, check, short, short_check, motion, moved,
+                           comparison, clock, cache, self.trajectory_rate))
+
+
+def plan(scenario: EnergyScenario | str | os.PathLike, *, seed: int | None = None,
+         cache: str | os.PathLike | None = None, show_progress: bool = True,
+         **settings: Any) -> Plan:
+    """Plan a scenario — an :class:`~mpd_pin.app.scenario.EnergyScenario`, a built-in name
+    or a ``.toml`` path — exactly as ``mpd-pin run`` does: a
+    :class:`~mpd_pin.app.planned.Plan` (energies J). ``seed`` and ``settings`` (the
+    keywords of :func:`configure`: planner, evaluation, execution, refine, scheduler,
+    num_nodes) override the scenario's; ``cache`` is a roadmap ``.npz`` to reuse or write.
+    """
+    if isinstance(scenario, (str, os.PathLike)):
+        from .kinds import load_scenario
+
+        scenario = load_scenario(scenario)
+    scn = configure(scenario, seed=seed, **settings)
+    with EnergyPlanner.from_scenario(scn, cache=cache, show_progress=show_progress) as p:
+        return p.plan(scn.start, scn.goal)

@@ -108,6 +108,7 @@ def _configuration(q: Any, nq: int, what: str) -> np.ndarray:
 
 class EnergyPlanner:
     """Minimum-energy motions for one arm in one world; the roadmap is built once.
+    Configurations are in rad (m for prismatic joints), energies E⁺ in J, times in s.
 
     drive: the :class:`~mpd_pin.Drive` (arm, DC motors, PD + feed-forward controller);
     world: a :class:`~mpd_pin.World` of obstacles and hazard zones (default: empty);

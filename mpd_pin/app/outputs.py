@@ -218,6 +218,8 @@ def make_figures(
         "energy.png": plot_cumulative_energy(
             series["t"], series["energy_t"], names, compare=compare,
             title=("cumulative electrical energy per joint" + note) if note else "",
+            marks=[(d.t, "replan: " + ", ".join(repr(n) for n in d.names) + " sensed")
+                   for d in detections],
         ),
     }
     curve = _duration_curve(motion)

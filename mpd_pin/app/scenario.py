@@ -70,9 +70,7 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field, replace
-from importlib import resources
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -87,7 +85,6 @@ from ..search.registry import DEFAULT_PLANNER, PLANNERS
 from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
 from .arm_source import arm_from_table
 from .config import ConfigError, Table, check_array
-from .kinds import KINDS, scenario_kind
 from .limits import (
     BOUNDS,
     Bound,
@@ -96,6 +93,7 @@ from .limits import (
     position_bound,
     size_bound,
 )
+from .scenario_files import builtin_scenarios, load_scenario_data, resolve_scenario
 
 __all__ = [
     "EnergyScenario",
@@ -143,45 +141,6 @@ class EnergyScenario:
 
     def drive(self) -> Drive:
         return Drive(self.arm, self.motor, self.kp, self.kd, feedforward=self.feedforward)
-
-
-# --------------------------------------------------------------------------- files
-def builtin_scenarios() -> dict[str, Path]:
-    """Built-in scenario names → TOML files shipped inside the package."""
-    root = resources.files("mpd_pin") / "scenarios"
-    out = {}
-    for entry in root.iterdir():
-        if entry.name.endswith(".toml"):
-            out[entry.name[: -len(".toml")]] = Path(str(entry))
-    return dict(sorted(out.items()))
-
-
-def resolve_scenario(name_or_path: str) -> Path:
-    """A built-in scenario name or a path to a ``.toml`` file → the file path."""
-    builtins = builtin_scenarios()
-    if name_or_path in builtins:
-        return builtins[name_or_path]
-    path = Path(name_or_path)
-    if path.is_file():
-        return path
-    raise ConfigError(
-        f"unknown scenario {name_or_path!r}: not a built-in ({', '.join(builtins)}) and not a file"
-    )
-
-
-def load_scenario_data(path: Path) -> dict[str, Any]:
-    """Parse a TOML file; malformed TOML raises ConfigError with the line."""
-    try:
-        with open(path, "rb") as f:
-            data = tomllib.load(f)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"malformed TOML in {str(path)!r}: {exc}") from None
-    except OSError as exc:
-        raise ConfigError(f"cannot read scenario {str(path)!r}: {exc.strerror}") from None
-    kind = scenario_kind(data)
-    if kind not in KINDS:
-        raise ConfigError(f"kind: {kind!r} is not one of {list(KINDS)}")
-    return data
 
 
 # --------------------------------------------------------------------------- parts

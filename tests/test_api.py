@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 import mpd_pin as mp
-from mpd_pin.app.config import ConfigError
 from mpd_pin.app.cli import main
+from mpd_pin.app.config import ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -90,6 +90,7 @@ from .limits import (
     Bound,
     apply_joint_limits,
     check_joint_limits,
+    joint_bounds,
     position_bound,
     size_bound,
 )
@@ -399,8 +400,9 @@ def _shape(t: Table, lim: _Lims):
 
 
 def _joint_bounds(arm: Arm) -> list[Bound]:
-    return [Bound(float(lo) - 1e-9, float(hi) + 1e-9, "", f"the limits of joint {n!r}")
-            for n, lo, hi in zip(arm.joint_names, arm.lower_limits, arm.upper_limits, strict=True)]
+    """Each joint's limits (± 1e-9); an angle more than 2π outside them is refused with
+    the hint that angles are in radians (:func:`~mpd_pin.app.limits.joint_bounds`)."""
+    return joint_bounds(arm, tol=1e-9)
 
 
 def _ik_choice(t: Table, key: str, arm: Arm) -> dict[str, Any]:
@@ -444,7 +446,25 @@ def _endpoint(t: Table, key: str, arm: Arm, world: World, ik_seed: int) -> np.nd
         return solve_position_ik(arm, frame, np.array(target), world=world, seed=ik_seed,
                                  **choice)
     except ValueError as exc:
-        raise ConfigError(f"{t.path}.{key}_ee: {exc}") from None
+        detail = ""
+        if "in collision" in str(exc):  # name what the arm would touch there
+            detail = _ik_collision(arm, frame, np.array(target), world, ik_seed, choice)
+        raise ConfigError(f"{t.path}.{key}_ee: {exc}{detail}") from None
+
+
+def _ik_collision(arm: Arm, frame: str, target: np.ndarray, world: World, ik_seed: int,
+                  choice: dict[str, Any]) -> str:
+    """When every IK solution for ``target`` collides: " (at [q]: link 'link3' touches
+    obstacle 'divider')" for the solution chosen without the obstacles, else ""."""
+    from ..arm.ik import solve_position_ik
+    from ..collision import CollisionChecker
+
+    try:
+        q = solve_position_ik(arm, frame, target, world=None, seed=ik_seed, **choice)
+    except ValueError:
+        return ""
+    what = CollisionChecker(arm, world).describe_collision(q)
+    return f" (at {np.round(q, 4).tolist()}: {what})" if what else ""
 
 
 def _compute(t: Table) -> str | None:

@@ -380,6 +380,69 @@ class CollisionChecker:
             self.model, self.data, self.geom_model, self.geom_data, self._state.active, q
         )
 
+    def colliding_pairs(self, q: Any) -> list[tuple[str, str]]:
+        """What collides at ``q``, by name, for messages: one ``(link, other)`` per pair in
+        collision, ``link`` the arm link holding the geometry (its frame, the URDF link:
+        ``"link 'link3'"``) and ``other`` the obstacle, hazard or other link
+        (``"obstacle 'divider'"``, ``"hazard 'zone'"``, ``"link 'link1'"``; unnamed
+        obstacles carry the World's names, ``box0``). A link with several geometries is
+        listed once per item it touches. Pairs count as in :meth:`is_free` (margin and
+        enforced hazard clearances included); [] when ``q`` is free."""
+        return [(a, b) for a, b, _ in self._named_collisions(q)]
+
+    def describe_collision(self, q: Any, limit: int = 3) -> str:
+        """:meth:`colliding_pairs` as one phrase, the links grouped by what they touch, e.g.
+        "link 'link3' touches obstacle 'divider'", "links 'link2' and 'link3' touch
+        obstacle 'box0'" ("come(s) within 0.05 m of" where a margin or hazard clearance
+        applies); at most ``limit`` such groups, then "and N more"; "" when ``q`` is free."""
+        groups: dict[tuple[str, float], list[str]] = {}
+        for a, b, m in self._named_collisions(q):
+            groups.setdefault((b, m), []).append(a.removeprefix("link "))
+        parts = []
+        for (b, m), links in list(groups.items())[:limit]:
+            one = len(links) == 1
+            who = f"link {links[0]}" if one else (
+                f"links {', '.join(links[:-1])} and {links[-1]}")
+            verb = ("touches" if one else "touch") if m <= 0.0 else (
+                f"{'comes' if one else 'come'} within {m:g} m of")
+            parts.append(f"{who} {verb} {b}")
+        if len(groups) > limit:
+            parts.append(f"and {len(groups) - limit} more")
+        return "; ".join(parts)
+
+    def _named_collisions(self, q: Any) -> list[tuple[str, str, float]]:
+        """(link, other, margin m) of each colliding pair at ``q`` (:meth:`colliding_pairs`)."""
+        q = self._q(q)
+        self._sync()
+        gm, gd, state = self.geom_model, self.geom_data, self._state
+        pin.computeCollisions(self.model, self.data, gm, gd, q, False)
+        out: list[tuple[str, str, float]] = []
+        seen: set[tuple[str, str]] = set()
+        for k in map(int, np.flatnonzero(state.active)):
+            if not gd.collisionResults[k].isCollision():
+                continue
+            cp = gm.collisionPairs[k]
+            pair = (self._geometry_label(cp.first), self._geometry_label(cp.second))
+            if pair not in seen:
+                seen.add(pair)
+                out.append((*pair, float(state.margins[k])))
+        return out
+
+    def _geometry_label(self, i: int) -> str:
+        """``"link 'name'"`` for an arm geometry (its parent frame's name, else the
+        geometry's name without Pinocchio's ``_<index>`` suffix), ``"obstacle 'name'"`` or
+        ``"hazard 'name'"`` for the world's."""
+        go = self.geom_model.geometryObjects[i]
+        if i in self.arm_geometry_ids:
+            frame = int(go.parentFrame)
+            if 0 <= frame < self.model.nframes:
+                return f"link {self.model.frames[frame].name!r}"
+            base, _, tail = go.name.rpartition("_")
+            name = base if base and tail.isdigit() else go.name
+            return f"link {name!r}"
+        kind, _, name = go.name.partition(":")
+        return f"{kind} {name!r}" if name else repr(go.name)
+
     def clearance(self, q: Any, *, hazards: bool = True) -> float:
         """Signed minimum distance (m) from the arm to the known obstacles and hazards.
 

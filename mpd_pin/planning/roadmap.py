@@ -438,7 +438,10 @@ def _check_endpoint(arm, checker, q, what: str) -> np.ndarray:
             f"[{np.round(arm.lower_limits, 6).tolist()}, {np.round(arm.upper_limits, 6).tolist()}]"
         )
     if not checker.is_free(q):
-        raise ValueError(f"{what} {np.round(q, 6).tolist()} is in collision")
+        describe = getattr(checker, "describe_collision", None)  # duck-typed checkers
+        detail = describe(q) if describe is not None else ""
+        raise ValueError(f"{what} {np.round(q, 6).tolist()} is in collision"
+                         + (f": {detail}" if detail else ""))
     return q
 
 

@@ -130,7 +130,7 @@ def test_lazy_plan_shows_edge_checks_and_rounds(small_quickstart, capfd):
     setup = prepare(scn, show_progress=True)
     built = capfd.readouterr().err
     assert "edge checks" in built and f"/{_pairs(setup)}" in built
-    setup.lazy.progress = True  # what prepare(show_progress=True) is to pass to LazyEdges
+    assert setup.lazy.progress  # prepare(show_progress=True) passes it to LazyEdges
     plan_path(scn, setup)
     err = capfd.readouterr().err
     assert "lazy search (energy)" in err and "rounds" in err
@@ -178,3 +178,19 @@ def test_status_line_and_bar(capfd):
     with bar(5, "frames", unit="frame") as b:
         b.update(5)
     assert "frames" in capfd.readouterr().err
+
+
+def test_cli_run_shows_every_long_phase_and_quiet_silences_them(tmp_path, capfd):
+    """``mpd-pin run`` on a small quickstart: edge checks, the lazy search, verification,
+    refinement, plots and replay each show on stderr; ``--quiet`` shows none of them."""
+    from mpd_pin.app.cli import main
+
+    args = ["run", "quickstart", "--nodes", "40", "--out"]
+    capfd.readouterr()
+    assert main([*args, str(tmp_path / "a"), "--quiet"]) == 0
+    assert capfd.readouterr().err == ""
+    assert main([*args, str(tmp_path / "b")]) == 0
+    err = capfd.readouterr().err
+    for phase in ("edge checks", "lazy search (energy)", "verification", "refinement",
+                  "mpd-pin: plots done", "mpd-pin: replay done"):
+        assert phase in err, phase

@@ -132,7 +132,8 @@ def prepare(
         cost, checker, scn.start, scn.goal, scn.options, cache=cache, show_progress=show_progress,
         evaluate=evaluation == "eager",
     )
-    lazy = LazyEdges(roadmap, cost, scn.options) if evaluation == "lazy" else None
+    lazy = (LazyEdges(roadmap, cost, scn.options, progress=show_progress)
+            if evaluation == "lazy" else None)
     return Setup(drive, world, checker, roadmap, world.to_dict(), cost.compute_record(),
                  evaluation=evaluation, lazy=lazy, cache=None if cache is None else Path(cache),
                  notes=notes, cost=cost)
@@ -152,7 +153,8 @@ def requery(setup: Setup, scn: EnergyScenario, *, show_progress: bool = True) ->
                         evaluate=lazy is None, show_progress=show_progress)
     return replace(
         setup, roadmap=roadmap, world_record=setup.world.to_dict(), cache=None,
-        lazy=None if lazy is None else LazyEdges(roadmap, setup.cost, scn.options),
+        lazy=None if lazy is None else LazyEdges(roadmap, setup.cost, scn.options,
+                                                 progress=show_progress),
         notes=list(setup.notes),
     )
 

@@ -369,13 +369,19 @@ class CostView:
                 # LazySP on collision too: certify the path's unchecked edges first; blocked
                 # ones leave in one update and the planner repairs before any simulation
                 blocked = lz.certify(todo)
+                checked = (f"{2 * lz.count.pairs_checked} edge checks, "
+                           if lz.count.pairs_checked else "")
                 if blocked.size:
                     self._push(planner, blocked)
+                    rounds.set_postfix_str(f"{checked}{lz.count.simulated} edges simulated",
+                                           refresh=False)
                     rounds.update(1)
                     continue
-                rounds.set_postfix_str(f"{lz.count.simulated} edges simulated (+{todo.size})")
+                rounds.set_postfix_str(
+                    f"{checked}{lz.count.simulated} edges simulated (+{todo.size})")
                 rescaled = lz.evaluate(todo)
-                rounds.set_postfix_str(f"{lz.count.simulated} edges simulated", refresh=False)
+                rounds.set_postfix_str(f"{checked}{lz.count.simulated} edges simulated",
+                                       refresh=False)
                 rounds.update(1)
                 if rescaled and self.kind == "energy":
                     if isinstance(planner.heuristic, LandmarkHeuristic):

@@ -384,3 +384,91 @@ def test_package_energy_equals_the_independent_sympy_rk4():
                                ref.energy, rtol=1e-6)
     fast = mp.edge_energies(drive, q0[None], q1[None], T, 5e-3)[0]
     np.testing.assert_allclose(fast, ref.energy, rtol=1e-3)  # measured: 3e-5, 3.6e-4
+
+
+def test_interrupted_completion_of_a_lazy_file_resumes_from_its_chunks(tmp_path, monkeypatch):
+    """A lazy roadmap file completed eagerly (build_roadmap with evaluate=True on a file
+    holding unevaluated edges) and interrupted by Ctrl-C keeps its finished chunks in
+    <cache>.partial/; the rerun reuses them — only the rest is simulated — and gives the
+    roadmap of an uninterrupted completion, array for array."""
+    from mpd_pin.app.plan import prepare
+    from mpd_pin.app.planner import configure
+    from mpd_pin.dynamics.cost import EnergyCost
+    from mpd_pin.planning import roadmap as rmod
+    from mpd_pin.planning.resume import partial_dir
+    from mpd_pin.planning.roadmap import Roadmap, build_roadmap
+
+    scn = configure(mp.load_scenario("quickstart"), num_nodes=30, collision="eager")
+    cache = tmp_path / "rm.npz"
+    setup = prepare(scn, cache=cache, show_progress=False)  # lazy: NaN energies on file
+    lazy_file = Roadmap.load(cache)
+    todo = int((~lazy_file.evaluated).sum())
+    assert todo > 200
+    cost = EnergyCost(setup.drive, scn.options.dt, chunk_size=40)
+    ref = build_roadmap(cost, setup.checker, scn.start, scn.goal, scn.options,
+                        show_progress=False)  # a plain eager build of the same roadmap
+
+    class Interrupt:  # the bar class: Ctrl-C once 120 edge energies are done
+        def __init__(self, *a, total=None, **kw):
+            self.n = 0
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def update(self, d):
+            self.n += d
+            if self.n >= 120:
+                raise KeyboardInterrupt
+
+    monkeypatch.setattr(rmod, "_tqdm", lambda show: Interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        build_roadmap(cost, setup.checker, scn.start, scn.goal, scn.options, cache=cache,
+                      show_progress=False, evaluate=True)
+    monkeypatch.undo()
+    saved = sorted(partial_dir(cache).glob("chunk-*.npz"))
+    assert len(saved) >= 3 and not Roadmap.load(cache).evaluated.all()
+    done = build_roadmap(cost, setup.checker, scn.start, scn.goal, scn.options, cache=cache,
+                         show_progress=False, evaluate=True)
+    assert done.chunks_reused == len(saved)
+    assert not partial_dir(cache).exists()
+    key = lambda r: {(u, v): e for u, v, e in  # noqa: E731
+                     zip(r.src.tolist(), r.dst.tolist(), r.energy.tolist(), strict=True)}
+    assert key(done) == key(ref)
+
+
+def test_ctrl_c_during_a_lazy_search_keeps_what_was_simulated(tmp_path, monkeypatch):
+    """Ctrl-C in the middle of a lazy search with a roadmap file: the energies simulated so
+    far are written back (the search's ``finally``), and the rerun reuses them — the same
+    optimum, fewer simulations."""
+    from mpd_pin.app.plan import plan_path, prepare
+    from mpd_pin.app.planner import configure
+
+    scn = configure(mp.load_scenario("quickstart"), num_nodes=60)
+    cache = tmp_path / "rm.npz"
+    ref_setup = prepare(scn, show_progress=False)
+    ref = plan_path(scn, ref_setup)
+    total = ref_setup.lazy.count.simulated
+    real = LazyEdges.evaluate
+    calls = []
+
+    def interrupted(self, ids):
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        calls.append(len(ids))
+        return real(self, ids)
+
+    monkeypatch.setattr(LazyEdges, "evaluate", interrupted)
+    setup = prepare(scn, cache=cache, show_progress=False)
+    with pytest.raises(KeyboardInterrupt):
+        plan_path(scn, setup)
+    monkeypatch.undo()
+    before = sum(calls)
+    assert before > 0
+    again = prepare(scn, cache=cache, show_progress=False)
+    assert again.lazy.reused == before
+    res = plan_path(scn, again)
+    assert res.path == ref.path and float(res.energy.sum()) == float(ref.energy.sum())
+    assert again.lazy.count.simulated == total - before

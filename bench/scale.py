@@ -5,7 +5,7 @@ and lazy energies: CPU seconds of every phase of roadmap + search (sampling, nei
 edge checks, bounds, the lazy loop), the edges checked and simulated, the rounds, and the
 optimum — with lazy collision checks (the default) and, up to ``--eager-max`` nodes, with
 every edge checked first. Targets: the 10k roadmap + search in ≤ 10 CPU-s; the lazy
-optimum equal to the eager one.
+optimum equal to the eager one; quickstart lazy ≥ 3× faster than eager.
 
 Run:  python bench/scale.py                 (a few minutes)
       python bench/scale.py --nodes 300 1000 --eager-max 1000
@@ -21,6 +21,24 @@ from mpd_pin.app.plan import plan_path, prepare
 from mpd_pin.app.planner import configure
 
 TARGET_CPU = 10.0  # CPU-s for roadmap + search at 10k nodes
+
+
+def quickstart_ratio(repeats: int = 3) -> None:
+    """Roadmap + search CPU-s of quickstart, lazy (energies and checks) against eager
+    (every edge checked and simulated first), best of ``repeats``; target ≥ 3×."""
+    best = {}
+    for how in ("lazy", "eager"):
+        scn = configure(mp.load_scenario("quickstart"), evaluation=how, collision=how)
+        for _ in range(repeats):
+            c0 = time.process_time()
+            setup = prepare(scn, show_progress=False)
+            result = plan_path(scn, setup)
+            cpu = time.process_time() - c0
+            best[how] = min(best.get(how, cpu), cpu)
+        print(f"quickstart {how:>5}: {best[how]:6.2f} CPU-s, E = {result.energy.sum():.6f} J")
+    ratio = best["eager"] / best["lazy"]
+    print(f"   target {'MET' if ratio >= 3 else 'MISSED'}: quickstart lazy {ratio:.1f}x faster "
+          "than eager (target >= 3)")
 
 
 def panda(nodes: int, collision: str):
@@ -55,7 +73,10 @@ def main() -> None:
     ap.add_argument("--nodes", type=int, nargs="+", default=[300, 1000, 3000, 10000])
     ap.add_argument("--eager-max", type=int, default=3000,
                     help="largest roadmap also run with eager collision checks")
+    ap.add_argument("--skip-quickstart", action="store_true")
     args = ap.parse_args()
+    if not args.skip_quickstart:
+        quickstart_ratio()
     head = (f"{'nodes':>6} {'check':>6} {'edges':>7} {'checked':>8} {'simul.':>6} "
             f"{'rounds':>6} {'sample':>7} {'knn':>6} {'checks':>7} {'bounds':>7} "
             f"{'loop':>7} {'(sim)':>6} {'CPU-s':>7} {'wall':>6} {'E (J)':>9}")

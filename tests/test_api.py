@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 import mpd_pin as mp
-from mpd_pin.app.config import ConfigError
 from mpd_pin.app.cli import main
+from mpd_pin.app.config import ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -129,7 +129,7 @@ def test_plan_fields_agree_with_result_json(two_queries):
 
     assert to_jsonable(second.comparison) == doc["comparison"]
     fig = second.plot("energy.png")
-    assert fig.axes
+    assert fig.axes and "Table 7" not in fig.axes[0].get_title()  # sized motors: no warning
     with pytest.raises(ValueError, match="not one of"):
         second.plot("nope.png")
 
@@ -178,3 +178,30 @@ def test_cli_version_and_nodes(tmp_path, capsys):
     capsys.readouterr()
     assert main(["run", "env1", "--nodes", "30", "--out", str(tmp_path / "e")]) == 2
     assert "--nodes does not apply to 'env1'" in capsys.readouterr().err
+
+
+def test_replan_figures_mark_the_replan_and_warn_of_the_paper_motor():
+    """replan (paper motor, a hidden obstacle): energy.png has a dashed line at the time the
+    obstacle was sensed — the node time of the replanning event — and every figure's title
+    carries the paper motor's warning; quickstart's (sized motors) does not."""
+    import matplotlib.pyplot as plt
+
+    plan = mp.plan("replan", show_progress=False)
+    doc = plan.to_dict()
+    events = doc["execution"]["replans"]
+    assert events
+    t_nodes = plan.series["node_times"]
+    times = sorted(float(t_nodes[min(ev["step"], len(t_nodes) - 1)]) for ev in events)
+    figs = plan.figures()
+    ax = figs["energy.png"].axes[0]
+    vertical = sorted(float(line.get_xdata()[0]) for line in ax.get_lines()
+                      if len(set(np.atleast_1d(line.get_xdata()))) == 1
+                      and line.get_linestyle() == "--")
+    assert vertical == pytest.approx(times, abs=1e-12)
+    labels = [t.get_text() for t in ax.texts]
+    for ev in events:
+        assert any(name in lab for lab in labels for name in ev["revealed"])
+    for name in ("path.png", "energy.png"):
+        assert "Table 7 motor" in figs[name].axes[0].get_title(), name
+    for fig in figs.values():
+        plt.close(fig)

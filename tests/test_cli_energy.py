@@ -253,7 +253,7 @@ def _bad_files(W, hit, names, lo, hi):
                                                rows[2]]),
                            ["row 2", "joint2", "outside its limits"]),
         "in collision": ("p.csv", "\n".join([rows[0], line(hit), rows[2]]),
-                         ["row 2", "in collision", "obstacle:big_block"]),
+                         ["row 2", "in collision", "obstacle 'big_block'"]),
         "missing joint column": ("p.csv", "t,joint1,joint3\n0,0.1,0.2\n1,0.2,0.3\n",
                                  ["no column for joint 'joint2'"]),
         "semicolons": ("p.csv", "0.1;0.2;0.3\n0.2;0.3;0.4\n",

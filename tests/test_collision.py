@@ -693,3 +693,20 @@ def test_bad_constructor():
         CollisionChecker(arm, min_step=0.0)
     assert CollisionChecker(arm).single_backend == "pairs"
     assert CollisionChecker(mp.Arm.from_example_robot_data("panda")).single_backend == "broadphase"
+
+
+def test_one_joint_arm_edges_against_dense_sampling():
+    """A one-joint arm (its Jacobian comes back 1-D from Pinocchio): the certified edge
+    check agrees with a dense brute-force sampling of the same edges."""
+    import mpd_pin as mp
+    from mpd_pin.collision import CollisionChecker
+
+    arm = mp.Arm.from_urdf(mp.planar_arm_urdf([0.5], [1.0]))
+    checker = CollisionChecker(arm, mp.World([mp.Box.planar([0.3, 0.0], 0.1, 0.1)]))
+    Q0 = np.array([[1.5], [1.0], [-2.0], [0.5], [-0.5]])
+    Q1 = np.array([[-1.5], [2.0], [-0.5], [3.0], [0.5]])
+    got = np.asarray(checker.edges_free(Q0, Q1, 0.05), dtype=bool)
+    s = np.linspace(0.0, 1.0, 2001)[:, None]
+    brute = [all(checker.is_free(q0 + t * (q1 - q0)) for t in s)
+             for q0, q1 in zip(Q0, Q1, strict=True)]
+    assert got.tolist() == brute == [False, True, True, True, False]

@@ -26,7 +26,7 @@ from mpd_pin.twolink.moving import (  # noqa: E402
     back_and_forth,
     static,
 )
-from mpd_pin.viz.plots import Detection, plot_arm_path  # noqa: E402
+from mpd_pin.viz.plots import Detection, plot_arm_path, plot_cumulative_energy  # noqa: E402
 from mpd_pin.world import Box, Cylinder, Hazard, Polygon, World  # noqa: E402
 
 TRI = [(0.4, -0.55), (0.7, -0.55), (0.55, -0.3)]
@@ -206,6 +206,62 @@ def test_app_passes_the_detection_of_the_replan_scenario(tmp_path, monkeypatch):
     assert det.t == pytest.approx(ev.step * scn.options.duration)
     assert seen["texts"] == [f"newcomer detected\nat t = {det.t:.2f} s"]
     assert (tmp_path / "path.png").stat().st_size > 10_000
+
+
+
+# ------------------------------------------------------------------ energy.png marks
+def vertical_lines(ax) -> dict[float, object]:
+    """x (s) -> line, for each line at one x spanning the axes' full height (display)."""
+    out = {}
+    for ln in ax.get_lines():
+        x, y = np.asarray(ln.get_xdata(), float), np.asarray(ln.get_ydata(), float)
+        if len(x) != 2 or x[0] != x[1]:
+            continue
+        ys = ln.get_transform().transform(np.column_stack([x, y]))[:, 1]
+        if np.allclose(sorted(ys), [ax.bbox.y0, ax.bbox.y1]):
+            out[float(x[0])] = ln
+    return out
+
+
+@pytest.fixture(scope="module")
+def energy_curves():
+    t = np.linspace(0.0, 6.0, 61)
+    E = np.column_stack([0.4 * t, 0.1 * t**2])
+    return t, E, ["j1", "j2"], (t, 0.7 * t**1.5, "shortest joint-space path")
+
+
+def test_energy_marks_a_dashed_line_and_its_label_at_each_time(energy_curves):
+    t, E, names, compare = energy_curves
+    marks = [(1.5, "replan: obstacle 'crate' sensed"), (4.25, "replan: obstacle 'pole' sensed")]
+    fig = _agg(plot_cumulative_energy(t, E, names, compare=compare, marks=marks))
+    ax = fig.axes[0]
+    lines = vertical_lines(ax)
+    assert sorted(lines) == [1.5, 4.25]
+    renderer = fig.canvas.get_renderer()
+    for tm, label in marks:
+        assert lines[tm].get_linestyle() == "--"
+        (text,) = [tx for tx in ax.texts if tx.get_text() == label]
+        assert text.xy[0] == tm
+        # written just left of its line, inside the axes
+        x_line = ax.transData.transform((tm, 0.0))[0]
+        box = text.get_window_extent(renderer)
+        assert x_line - 20 < box.x1 <= x_line
+        assert ax.bbox.y0 <= box.y0 and box.y1 <= ax.bbox.y1
+    # the curves and their legend are those of the figure without marks
+    plain = _agg(plot_cumulative_energy(t, E, names, compare=compare))
+    assert legend_texts(ax) == legend_texts(plain.axes[0])
+    plt.close(fig)
+    plt.close(plain)
+
+
+def test_energy_without_marks_has_no_vertical_line(energy_curves):
+    t, E, names, compare = energy_curves
+    fig = _agg(plot_cumulative_energy(t, E, names, compare=compare))
+    ax = fig.axes[0]
+    assert vertical_lines(ax) == {}
+    assert len(ax.texts) == 0
+    assert len(ax.get_lines()) == len(names) + 2  # per joint, total, compared total
+    plt.close(fig)
 
 
 # ------------------------------------------------------------------ paper 002

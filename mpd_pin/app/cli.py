@@ -48,7 +48,7 @@ EXECUTIONS = ("auto", "stop", "nonstop")
 
 def _describe(path: Path) -> tuple[str, str]:
     from .kinds import scenario_kind
-    from .scenario import load_scenario_data
+    from .scenario_files import load_scenario_data
 
     try:
         data = load_scenario_data(path)
@@ -58,7 +58,7 @@ def _describe(path: Path) -> tuple[str, str]:
 
 
 def cmd_scenarios(_: argparse.Namespace) -> int:
-    from .scenario import builtin_scenarios
+    from .scenario_files import builtin_scenarios
 
     for name, path in builtin_scenarios().items():
         kind, desc = _describe(path)
@@ -69,7 +69,7 @@ def cmd_scenarios(_: argparse.Namespace) -> int:
 def cmd_show(args: argparse.Namespace) -> int:
     """Print the TOML text of the built-in scenario ``args.name`` as shipped (copy it to a
     file and edit it: ``mpd-pin show case1 > my_scene.toml``)."""
-    from .scenario import builtin_scenarios
+    from .scenario_files import builtin_scenarios
 
     scenarios = builtin_scenarios()
     if args.name not in scenarios:

@@ -6,6 +6,7 @@ Every check names the offending key by its dotted path, e.g.
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
@@ -13,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from .limits import Bound
 
-__all__ = ["ConfigError", "Table", "check_array"]
+__all__ = ["ConfigError", "Table", "check_array", "did_you_mean"]
 
 
 class ConfigError(ValueError):
@@ -176,14 +177,28 @@ class Table:
         return val
 
     def done(self) -> None:
-        """Raise ConfigError for any key that was never read (unknown keys)."""
+        """Raise ConfigError for any key that was never read (unknown keys), suggesting the
+        nearest known key of this table for each (:func:`did_you_mean`)."""
         unknown = sorted(set(self.data) - self.seen)
         if unknown:
             known = ", ".join(sorted(self.seen)) or "none"
             raise ConfigError(
                 f"{self.path or 'top level'}: unknown key(s) {', '.join(map(repr, unknown))} "
-                f"(known here: {known})"
+                f"(known here: {known}){did_you_mean(unknown, self.seen)}"
             )
+
+
+def did_you_mean(unknown: Sequence[str], known: Iterable[str]) -> str:
+    """``"; did you mean 'num_nodes'?"`` — the closest of ``known`` to each name of
+    ``unknown`` (``difflib.get_close_matches``, its default cutoff 0.6), ``" for 'x'"``
+    added when there are several unknown names; "" when none is close."""
+    known = sorted(str(k) for k in known)
+    hints = []
+    for name in unknown:
+        close = difflib.get_close_matches(str(name), known, n=1)
+        if close:
+            hints.append(f"{close[0]!r}" + (f" for {name!r}" if len(unknown) > 1 else ""))
+    return f"; did you mean {', '.join(hints)}?" if hints else ""
 
 
 def check_array(

@@ -145,7 +145,7 @@ def load_scenario(name_or_path: str | Path, *, seed: int | None = None,
     ``planner`` (a name of :data:`mpd_pin.search.PLANNERS`) its ``[planner] algorithm``
     (energy scenarios only). Raises ConfigError for bad input.
     """
-    from .scenario import load_scenario_data, resolve_scenario
+    from .scenario_files import load_scenario_data, resolve_scenario
 
     path = resolve_scenario(str(name_or_path))
     data = load_scenario_data(path)

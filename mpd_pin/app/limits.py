@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import ConfigError, Table
+from .config import ConfigError, Table, did_you_mean
 
 __all__ = [
     "BOUNDS",
@@ -30,6 +30,7 @@ __all__ = [
     "workspace_bound",
     "position_bound",
     "size_bound",
+    "joint_bounds",
     "apply_joint_limits",
     "check_joint_limits",
 ]
@@ -40,7 +41,12 @@ WORKSPACE_FACTOR = 10.0
 
 @dataclass(frozen=True)
 class Bound:
-    """A closed range ``[lo, hi]`` of one physical quantity (``lo_open``: ``lo`` excluded)."""
+    """A closed range ``[lo, hi]`` of one physical quantity (``lo_open``: ``lo`` excluded).
+
+    ``tol``: how far beyond ``[lo, hi]`` a value is still accepted (not shown in the
+    message); ``far_hint``: appended to the message of a value more than ``far`` outside
+    the range, e.g. "did you give degrees?" for joint angles (:func:`joint_bounds`).
+    """
 
     lo: float
     hi: float
@@ -49,11 +55,15 @@ class Bound:
     lo_open: bool = False
     allow_inf: bool = False  # +inf accepted as a value with a meaning (e.g. "no edge")
     note: str = ""  # appended to the description, e.g. "or inf: no edge"
+    tol: float = 0.0
+    interval: bool = False  # describe as [lo, hi] even when symmetric
+    far: float = math.inf
+    far_hint: str = ""
 
     def describe(self) -> str:
         u = f" {self.unit}" if self.unit else ""
         note = f", {self.note}" if self.note else ""
-        if self.lo == -self.hi and not self.lo_open:
+        if self.lo == -self.hi and not self.lo_open and not self.interval:
             return f"{self.what or 'the bound'} of ±{self.hi:g}{u}{note}"
         left = "(" if self.lo_open else "["
         return f"{self.what or 'the range'} {left}{self.lo:g}, {self.hi:g}]{u}{note}"
@@ -66,9 +76,13 @@ class Bound:
         if not math.isfinite(value):
             raise ConfigError(f"{name} = {value} is not a finite number "
                               f"(expected within {self.describe()})")
-        below = value <= self.lo if self.lo_open else value < self.lo
-        if below or value > self.hi:
-            raise ConfigError(f"{name} = {value:g}{u} is outside {self.describe()}")
+        lo, hi = self.lo - self.tol, self.hi + self.tol
+        below = value <= lo if self.lo_open else value < lo
+        if below or value > hi:
+            hint = ""
+            if self.far_hint and (value < self.lo - self.far or value > self.hi + self.far):
+                hint = f"; {self.far_hint}"
+            raise ConfigError(f"{name} = {value:g}{u} is outside {self.describe()}{hint}")
         return value
 
 
@@ -171,6 +185,26 @@ def _is_prismatic(model, k: int) -> bool:
     return short.startswith("JointModelP") and not short.startswith("JointModelPlanar")
 
 
+#: How far (rad) outside its limits a joint angle must be to earn the degrees hint.
+DEGREES_HINT_BEYOND = 2 * math.pi
+DEGREES_HINT = "the angles are in radians (did you give degrees?)"
+
+
+def joint_bounds(arm, tol: float = 1e-9) -> list[Bound]:
+    """The position range of each movable joint of ``arm`` (rad, or m if prismatic), with
+    ``tol`` of slack; an angle more than :data:`DEGREES_HINT_BEYOND` outside the limits of
+    a revolute or continuous joint gets :data:`DEGREES_HINT` in its message."""
+    model = arm.model
+    out = []
+    for k, (name, lo, hi) in enumerate(zip(arm.joint_names, arm.lower_limits,
+                                           arm.upper_limits, strict=True)):
+        revolute = not _is_prismatic(model, k)
+        out.append(Bound(float(lo), float(hi), "", f"the limits of joint {name!r}", tol=tol,
+                         interval=True, far=DEGREES_HINT_BEYOND if revolute else math.inf,
+                         far_hint=DEGREES_HINT if revolute else ""))
+    return out
+
+
 def _units(model, k: int) -> dict[str, str]:
     return {"velocity": "m/s", "effort": "N"} if _is_prismatic(model, k) else {
         "velocity": "rad/s", "effort": "N·m"}
@@ -187,8 +221,9 @@ def apply_joint_limits(t: Table, arm) -> dict[str, dict[str, float]]:
     for joint in list(t.data):
         if joint not in names:
             locked = " (it is locked)" if joint in arm.locked_joints else ""
+            hint = "" if locked else did_you_mean([joint], names)
             raise ConfigError(f"{t.path}.{joint}: the arm has no movable joint {joint!r}"
-                              f"{locked}; joints: {names}")
+                              f"{locked}; joints: {names}{hint}")
         jt = t.table(joint)
         k = names.index(joint)
         units = _units(arm.model, k)

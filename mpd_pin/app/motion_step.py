@@ -107,8 +107,9 @@ def _checker(scn: EnergyScenario, setup: Setup):
 
 
 def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Verification,
-                shortest: PlanResult | None) -> RunMotion:
-    """The returned motion of a run (module docstring)."""
+                shortest: PlanResult | None, *, show_progress: bool = False) -> RunMotion:
+    """The returned motion of a run (module docstring); ``show_progress``: a bar over the
+    candidates on stderr."""
     opts = scn.motion
     drive, roadmap = setup.drive, setup.roadmap
     if plan.execution is not None or (not opts.refine and opts.execution == "stop") or len(
@@ -131,7 +132,8 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
             cands[f"alternative {k + 1}"] = roadmap.nodes[path]
     detours = frozenset(n for n in cands if n.startswith("alternative"))
     try:
-        refined = refine_candidates(drive, checker, scn.options, cands, opts, optional=detours)
+        refined = refine_candidates(drive, checker, scn.options, cands, opts, optional=detours,
+                                    progress=show_progress)
     except NoFeasibleMotion as exc:
         if opts.max_duration is None:
             raise
@@ -148,7 +150,8 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
                 short_motion = refined.by_name[OPTIMUM]
             else:
                 short_motion = refine_candidates(
-                    drive, checker, scn.options, {SHORTEST: roadmap.nodes[shortest.path]}, opts
+                    drive, checker, scn.options, {SHORTEST: roadmap.nodes[shortest.path]}, opts,
+                    progress=show_progress,
                 ).motion
     how = "shortcut where the energy drops, " if opts.refine else ""
     note = (f"{how}{opts.execution} execution; from the {refined.candidate} "

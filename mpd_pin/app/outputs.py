@@ -88,6 +88,10 @@ PAPER_MOTOR_SECTION = "Energies with the paper's motor"
 _PAPER_CONSTANTS = ("R", "Kt", "Ke", "B")
 
 
+#: The short form of the paper motor's warning, under the titles of the figures.
+PAPER_MOTOR_NOTE = f'10⁴–10⁵ J from its constants; README "{PAPER_MOTOR_SECTION}"'
+
+
 def _is_paper_motor(motor: DCMotor) -> bool:
     return all(getattr(motor, c) == getattr(PAPER_MOTOR, c) for c in _PAPER_CONSTANTS)
 
@@ -195,6 +199,8 @@ def make_figures(
             roadmap.nodes[path])
         title = (f"{scn.name}: {motion.energy.total_energy:.4g} J {motion.energy.execution}, "
                  f"{len(Q_nodes)} waypoints")
+    # the paper motor's warning (run_warnings) on every figure that shows its energies
+    note = f"\n(the paper's Table 7 motor: {PAPER_MOTOR_NOTE})" if run_warnings(scn) else ""
     figs = {
         "path.png": plot_arm_path(
             scn.arm,
@@ -204,19 +210,22 @@ def make_figures(
             other_paths=others,
             node_times=t_nodes,
             detections=detections,
-            title=title,
+            title=title + note,
         ),
         "joint_angles.png": plot_joint_angles(
             series["t"], series["q"], names, node_times=series["node_times"]
         ),
         "energy.png": plot_cumulative_energy(
-            series["t"], series["energy_t"], names, compare=compare
+            series["t"], series["energy_t"], names, compare=compare,
+            title=("cumulative electrical energy per joint" + note) if note else "",
+            marks=[(d.t, "replan: " + ", ".join(repr(n) for n in d.names) + " sensed")
+                   for d in detections],
         ),
     }
     curve = _duration_curve(motion)
     if curve is not None:
         figs["energy_duration.png"] = plot_energy_duration(*curve[:3], ideal=curve[3],
-                                                           title=scn.name)
+                                                           title=scn.name + note)
     return figs
 
 

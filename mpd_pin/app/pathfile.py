@@ -256,6 +256,5 @@ def check_path(W: np.ndarray, arm: Any, checker: Any = None, *, rows: Sequence[s
     free = np.asarray(checker.is_free_batch(W), dtype=bool)
     if not free.all():
         r = int(np.flatnonzero(~free)[0])
-        pairs = checker.in_collision_pairs(W[r])
-        what = f" ({pairs[0][0]} with {pairs[0][1]})" if pairs else ""
-        raise ConfigError(f"{prefix}{rows[r]} is in collision{what}")
+        what = checker.describe_collision(W[r])
+        raise ConfigError(f"{prefix}{rows[r]} is in collision{': ' + what if what else ''}")

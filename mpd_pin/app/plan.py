@@ -25,6 +25,7 @@ re-planning, sensing and repair, same planner — on the *distance* costs of
 from __future__ import annotations
 
 import math
+import re
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -56,6 +57,7 @@ __all__ = [
     "path_length",
     "distance_roadmap",
     "refusal_note",
+    "no_path_message",
 ]
 
 
@@ -130,7 +132,8 @@ def prepare(
         cost, checker, scn.start, scn.goal, scn.options, cache=cache, show_progress=show_progress,
         evaluate=evaluation == "eager",
     )
-    lazy = LazyEdges(roadmap, cost, scn.options) if evaluation == "lazy" else None
+    lazy = (LazyEdges(roadmap, cost, scn.options, progress=show_progress)
+            if evaluation == "lazy" else None)
     return Setup(drive, world, checker, roadmap, world.to_dict(), cost.compute_record(),
                  evaluation=evaluation, lazy=lazy, cache=None if cache is None else Path(cache),
                  notes=notes, cost=cost)
@@ -150,7 +153,8 @@ def requery(setup: Setup, scn: EnergyScenario, *, show_progress: bool = True) ->
                         evaluate=lazy is None, show_progress=show_progress)
     return replace(
         setup, roadmap=roadmap, world_record=setup.world.to_dict(), cache=None,
-        lazy=None if lazy is None else LazyEdges(roadmap, setup.cost, scn.options),
+        lazy=None if lazy is None else LazyEdges(roadmap, setup.cost, scn.options,
+                                                 progress=show_progress),
         notes=list(setup.notes),
     )
 
@@ -202,9 +206,43 @@ def plan_path(scn: EnergyScenario, setup: Setup) -> PlanResult:
             lazy = setup.lazy
             note = refusal_note(lazy.roadmap.without_edges(lazy.refused),
                                 scn.options.arrival_tolerance, simulated=lazy.count.simulated)
-        if not note:
-            raise
-        raise NoPathError(f"{exc}; {note}") from None
+        text = no_path_message(str(exc), scn, setup)
+        raise NoPathError(f"{text}; {note}" if note else text) from None
+
+
+_NO_PATH = re.compile(r"no path from node (\d+) to node (\d+)")
+
+
+def no_path_message(text: str, scn: EnergyScenario, setup: Setup) -> str:
+    """A search's "no path from node 0 to node 1" (``text``) in the user's terms: the start
+    and the goal (or the node reached on the way where the arm had to re-plan after
+    sensing a hidden obstacle), what removed edges (revealed obstacles, hazard
+    clearances), and what to try: more ``[roadmap] num_nodes`` or ``k``, another seed."""
+    roadmap, world, opts = setup.roadmap, setup.world, scn.options
+
+    def node(i: int) -> str:
+        if i == roadmap.start:
+            return "the start"
+        return "the goal" if i == roadmap.goal else f"roadmap node {i} (reached on the way)"
+
+    m = _NO_PATH.fullmatch(text.strip())
+    head = f"no path from {node(int(m[1]))} to {node(int(m[2]))}" if m else text
+    why = []
+    revealed = sorted(world.revealed)
+    if revealed:
+        why.append(f"once the hidden obstacle(s) {', '.join(map(repr, revealed))} were sensed")
+    if not math.isfinite(scn.hazard_penalty) and any(h.clearance > 0 for h in world.hazards):
+        why.append("without the edges closer to a hazard than its clearance "
+                   "([planner] hazard_penalty = inf)")
+    alone = [name for name, ends in (("start", roadmap.src), ("goal", roadmap.dst))
+             if not np.any(np.asarray(ends) == getattr(roadmap, name))]
+    if alone:
+        why.append(f"(the {' and the '.join(alone)} {'has' if len(alone) == 1 else 'have'} "
+                   "no collision-free edge at all)")
+    where = f" {' '.join(why)}" if why else ""
+    return (f"{head}: the roadmap's edges do not connect them{where} ([roadmap] num_nodes = "
+            f"{opts.num_nodes}, k = {opts.k}, seed = {opts.seed}); try more nodes or "
+            "neighbours ([roadmap] num_nodes, k) or another seed ([roadmap] seed, or --seed)")
 
 
 def refusal_note(roadmap: Roadmap, tolerance: float, simulated: int | None = None) -> str:

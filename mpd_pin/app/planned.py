@@ -91,6 +91,7 @@ class _Parts:
     clock: PhaseClock
     cache: dict[str, Any]
     trajectory_rate: float
+    show_progress: bool = False
 
 
 class Plan:
@@ -180,21 +181,26 @@ class Plan:
                 plt.close(fig)
         return figs[which]
 
-    def save(self, out_dir: str | os.PathLike, *, replay: bool = True) -> dict[str, Any]:
+    def save(self, out_dir: str | os.PathLike, *, replay: bool = True,
+             show_progress: bool | None = None) -> dict[str, Any]:
         """Write the files of ``mpd-pin run`` into ``out_dir`` (created if needed):
         trajectory.csv/json, path.png, joint_angles.png, energy.png (energy_duration.png),
         replay.html (with ``replay``) and result.json last. Returns result.json's content.
-        A folder this call created is removed again if it fails before writing a file."""
+        A folder this call created is removed again if it fails before writing a file.
+        ``show_progress`` (default: the planner's) prints a status line per phase."""
         out_dir = Path(out_dir)
         created = check_output_dir(out_dir)
+        shown = self._parts.show_progress if show_progress is None else bool(show_progress)
         try:
-            return self._save_in(out_dir, replay)
+            return self._save_in(out_dir, replay, shown)
         except BaseException:
             if created and out_dir.is_dir() and not any(out_dir.iterdir()):
                 out_dir.rmdir()
             raise
 
-    def _save_in(self, out_dir: Path, replay: bool) -> dict[str, Any]:
+    def _save_in(self, out_dir: Path, replay: bool, shown: bool) -> dict[str, Any]:
+        from ..progress import status
+
         p, clock = self._parts, self._parts.clock
         total, cpu_total = clock.wall["total"], clock.cpu["total"]
         w0, c0 = time.perf_counter(), time.process_time()
@@ -202,12 +208,12 @@ class Plan:
         with clock.phase("trajectory"):
             write_trajectory_csv(out_dir / "trajectory.csv", names, p.moved.series, kt)
             write_trajectory_json(out_dir / "trajectory.json", self._traj)
-        with clock.phase("plots"):
+        with clock.phase("plots"), status("plots", shown):
             write_plots(out_dir, p.scenario, p.setup, p.result, p.moved,
                         (p.shortest, p.shortest_check), motion=p.motion)
         record = dict(self._record)
         if replay:
-            with clock.phase("replay"):
+            with clock.phase("replay"), status("replay", shown):
                 record["replay"] = write_replay_html(out_dir, p.scenario, p.setup, p.result,
                                                      p.moved, p.shortest, motion=p.motion)
         clock.wall["total"] = total + time.perf_counter() - w0

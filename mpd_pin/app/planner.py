@@ -248,22 +248,27 @@ class EnergyPlanner:
 
     def _finish(self, scn: EnergyScenario, setup, clock: PhaseClock,
                 cache: dict[str, Any]) -> Plan:
+        from ..progress import status
+
         dt = scn.options.dt
-        with clock.phase("search"):
+        # a lazy search shows its own bar over the rounds; an eager one a status line
+        eager = self.show_progress and setup.lazy is None
+        with clock.phase("search"), status("search", eager):
             result = plan_path(scn, setup)
-        with clock.phase("verification"):
+        with clock.phase("verification"), status("verification", self.show_progress):
             check = verify_path(setup.drive, setup.roadmap, result.path, dt, result.energy)
-        with clock.phase("comparison"):
+        with clock.phase("comparison"), status("shortest path", eager):
             short = plan_shortest(scn, setup)
             short_check = verify_path(setup.drive, setup.roadmap, short.path, dt, short.energy)
             comparison = comparison_record(scn, setup, result, check, short, short_check)
         with clock.phase("refinement"):
-            motion = make_motion(scn, setup, result, check, short)
+            motion = make_motion(scn, setup, result, check, short,
+                                 show_progress=self.show_progress)
             moved = motion.check()
             add_motion_comparison(comparison, motion)
         clock.finish()
         return Plan(_Parts(scn, setup, result, check, short, short_check, motion, moved,
-                           comparison, clock, cache, self.trajectory_rate))
+                           comparison, clock, cache, self.trajectory_rate, self.show_progress))
 
 
 def plan(scenario: EnergyScenario | str | os.PathLike, *, seed: int | None = None,

@@ -70,9 +70,7 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field, replace
-from importlib import resources
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -87,15 +85,16 @@ from ..search.registry import DEFAULT_PLANNER, PLANNERS
 from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
 from .arm_source import arm_from_table
 from .config import ConfigError, Table, check_array
-from .kinds import KINDS, scenario_kind
 from .limits import (
     BOUNDS,
     Bound,
     apply_joint_limits,
     check_joint_limits,
+    joint_bounds,
     position_bound,
     size_bound,
 )
+from .scenario_files import builtin_scenarios, load_scenario_data, resolve_scenario
 
 __all__ = [
     "EnergyScenario",
@@ -143,45 +142,6 @@ class EnergyScenario:
 
     def drive(self) -> Drive:
         return Drive(self.arm, self.motor, self.kp, self.kd, feedforward=self.feedforward)
-
-
-# --------------------------------------------------------------------------- files
-def builtin_scenarios() -> dict[str, Path]:
-    """Built-in scenario names → TOML files shipped inside the package."""
-    root = resources.files("mpd_pin") / "scenarios"
-    out = {}
-    for entry in root.iterdir():
-        if entry.name.endswith(".toml"):
-            out[entry.name[: -len(".toml")]] = Path(str(entry))
-    return dict(sorted(out.items()))
-
-
-def resolve_scenario(name_or_path: str) -> Path:
-    """A built-in scenario name or a path to a ``.toml`` file → the file path."""
-    builtins = builtin_scenarios()
-    if name_or_path in builtins:
-        return builtins[name_or_path]
-    path = Path(name_or_path)
-    if path.is_file():
-        return path
-    raise ConfigError(
-        f"unknown scenario {name_or_path!r}: not a built-in ({', '.join(builtins)}) and not a file"
-    )
-
-
-def load_scenario_data(path: Path) -> dict[str, Any]:
-    """Parse a TOML file; malformed TOML raises ConfigError with the line."""
-    try:
-        with open(path, "rb") as f:
-            data = tomllib.load(f)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"malformed TOML in {str(path)!r}: {exc}") from None
-    except OSError as exc:
-        raise ConfigError(f"cannot read scenario {str(path)!r}: {exc.strerror}") from None
-    kind = scenario_kind(data)
-    if kind not in KINDS:
-        raise ConfigError(f"kind: {kind!r} is not one of {list(KINDS)}")
-    return data
 
 
 # --------------------------------------------------------------------------- parts
@@ -440,8 +400,9 @@ def _shape(t: Table, lim: _Lims):
 
 
 def _joint_bounds(arm: Arm) -> list[Bound]:
-    return [Bound(float(lo) - 1e-9, float(hi) + 1e-9, "", f"the limits of joint {n!r}")
-            for n, lo, hi in zip(arm.joint_names, arm.lower_limits, arm.upper_limits, strict=True)]
+    """Each joint's limits (± 1e-9); an angle more than 2π outside them is refused with
+    the hint that angles are in radians (:func:`~mpd_pin.app.limits.joint_bounds`)."""
+    return joint_bounds(arm, tol=1e-9)
 
 
 def _ik_choice(t: Table, key: str, arm: Arm) -> dict[str, Any]:
@@ -485,7 +446,25 @@ def _endpoint(t: Table, key: str, arm: Arm, world: World, ik_seed: int) -> np.nd
         return solve_position_ik(arm, frame, np.array(target), world=world, seed=ik_seed,
                                  **choice)
     except ValueError as exc:
-        raise ConfigError(f"{t.path}.{key}_ee: {exc}") from None
+        detail = ""
+        if "in collision" in str(exc):  # name what the arm would touch there
+            detail = _ik_collision(arm, frame, np.array(target), world, ik_seed, choice)
+        raise ConfigError(f"{t.path}.{key}_ee: {exc}{detail}") from None
+
+
+def _ik_collision(arm: Arm, frame: str, target: np.ndarray, world: World, ik_seed: int,
+                  choice: dict[str, Any]) -> str:
+    """When every IK solution for ``target`` collides: " (at [q]: link 'link3' touches
+    obstacle 'divider')" for the solution chosen without the obstacles, else ""."""
+    from ..arm.ik import solve_position_ik
+    from ..collision import CollisionChecker
+
+    try:
+        q = solve_position_ik(arm, frame, target, world=None, seed=ik_seed, **choice)
+    except ValueError:
+        return ""
+    what = CollisionChecker(arm, world).describe_collision(q)
+    return f" (at {np.round(q, 4).tolist()}: {what})" if what else ""
 
 
 def _compute(t: Table) -> str | None:

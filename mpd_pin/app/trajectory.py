@@ -10,8 +10,11 @@
 * ``trajectory.json`` (:func:`joint_trajectory`) — the same motion shaped like ROS
   ``trajectory_msgs/JointTrajectory``: ``joint_names`` and ``points``, each with
   ``positions`` (rad), ``velocities`` (rad/s), ``accelerations`` (rad/s²), ``effort``
-  (N·m, n·Kt·i) and ``time_from_start`` (s), sampled every 1/rate s from 0 (default
-  100 Hz) plus the final sample when the duration is not on that grid. Positions,
+  (N·m, n·Kt·i), ``time_from_start`` (s, a float) and ``time_from_start_ros``, the
+  same time as ROS's ``builtin_interfaces/Duration`` ``{"sec": int, "nanosec": int}``
+  (:func:`ros_duration`; the float keeps its name for existing readers), sampled every
+  1/rate s from 0 (default 100 Hz) plus the final sample when the duration is not on
+  that grid. Positions,
   velocities and effort are linear interpolations of the simulation samples;
   accelerations are central finite differences of the simulated velocities on the
   simulation step (``numpy.gradient``), then interpolated likewise.
@@ -35,6 +38,7 @@ __all__ = [
     "trajectory_table",
     "write_trajectory_csv",
     "joint_trajectory",
+    "ros_duration",
     "write_trajectory_json",
 ]
 
@@ -86,6 +90,15 @@ def _sample_times(duration: float, rate: float) -> np.ndarray:
     return t
 
 
+def ros_duration(seconds: float) -> dict[str, int]:
+    """``seconds`` (≥ 0) as ROS's ``builtin_interfaces/Duration``: ``{"sec": int,
+    "nanosec": int}`` with 0 ≤ nanosec < 10⁹, rounded to the nanosecond."""
+    if not (np.isfinite(seconds) and seconds >= 0):
+        raise ValueError(f"a time from start must be a number ≥ 0 (s), got {seconds!r}")
+    sec, nanosec = divmod(round(float(seconds) * 1e9), 10**9)
+    return {"sec": int(sec), "nanosec": int(nanosec)}
+
+
 def joint_trajectory(
     joint_names: Sequence[str],
     series: dict[str, np.ndarray],
@@ -112,6 +125,7 @@ def joint_trajectory(
             "accelerations": cols[2][k],
             "effort": cols[3][k],
             "time_from_start": float(ts[k]),
+            "time_from_start_ros": ros_duration(float(ts[k])),
         }
         for k in range(len(ts))
     ]

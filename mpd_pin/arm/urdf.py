@@ -12,8 +12,6 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-import yourdfpy
-from lxml import etree
 
 __all__ = ["planar_arm_urdf", "cylinder_inertia"]
 
@@ -113,6 +111,9 @@ def planar_arm_urdf(
         raise ValueError(f"every lower joint limit must be below the upper one: {lo} vs {hi}")
     if not name or any(c.isspace() for c in name):
         raise ValueError(f"robot name must be a non-empty word, got {name!r}")
+
+    import yourdfpy  # ≈ 3 s to import (trimesh): only when a URDF is written
+    from lxml import etree
 
     grey = yourdfpy.Material(
         name="grey", color=yourdfpy.Color(rgba=np.array([0.6, 0.6, 0.65, 1.0]))

@@ -75,7 +75,9 @@ def _joint_terms(model: pin.Model) -> tuple[np.ndarray, ...]:
         if model.joints[j].nv != 1 or model.joints[j].nq != 1:
             unsupported.append(model.names[j])
             continue
-        s_j = pin.getJointJacobian(model, data, j, pin.LOCAL)[:, model.idx_vs[j]]
+        # (6, nv): a one-joint model's Jacobian comes back 1-D, so reshape before slicing
+        jac = np.asarray(pin.getJointJacobian(model, data, j, pin.LOCAL)).reshape(6, model.nv)
+        s_j = jac[:, model.idx_vs[j]]
         lin[j] = float(np.linalg.norm(s_j[:3]))
         ang[j] = float(np.linalg.norm(s_j[3:]))
         offset[j] = float(np.linalg.norm(model.jointPlacements[j].translation))

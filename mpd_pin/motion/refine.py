@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..dynamics.motor import Drive
+from ..progress import bar as progress_bar
 from .energy import EXECUTIONS, MotionEnergy, trajectory_energy
 from .relax import relax_path
 from .shortcut import shortcut_path
@@ -102,16 +103,21 @@ class _Pruned(Exception):
 
 def _refine_one(drive: Drive, W: np.ndarray, checker: Any, options: Any,
                 motion: MotionOptions, memo: dict, rec: dict[str, Any],
-                bar: float = np.inf) -> np.ndarray:
+                bar: float = np.inf, stage=None) -> np.ndarray:
     """One candidate's pipeline (docs/design.md §9e): shortcut, relax the via points,
     shortcut again; its stop-and-go E⁺ (J) after each step go into ``rec``. Raises
-    :class:`_Pruned` when the shortcut's E⁺ is above ``bar`` (J)."""
+    :class:`_Pruned` when the shortcut's E⁺ is above ``bar`` (J). ``stage(name)``, if
+    given, is told each step as it starts."""
+    stage = stage or (lambda name: None)
+    stage("shortcut")
     sc = shortcut_path(drive, W, checker, options, interior=motion.interior,
                        max_rounds=motion.max_rounds, memo=memo)
     rec.update(stop_energy_in=sc.initial_energy, stop_energy_shortcut=sc.total_energy)
     if sc.total_energy > bar:
         raise _Pruned
+    stage("relaxation")
     rx = relax_path(drive, sc.waypoints, checker, options, seed=motion.seed, memo=memo)
+    stage("second shortcut")
     sc2 = shortcut_path(drive, rx.waypoints, checker, options, interior=motion.interior,
                         max_rounds=1, memo=memo)
     rec.update(stop_energy_in=sc.initial_energy, stop_energy_shortcut=sc.total_energy,
@@ -129,6 +135,7 @@ def refine_candidates(
     candidates: dict[str, np.ndarray],
     motion: MotionOptions | None = None,
     optional: frozenset[str] = frozenset(),
+    progress: bool = False,
 ) -> RefinedMotion:
     """The cheapest feasible motion over ``candidates`` (name → certified waypoints (m+1, nq)
     rad, in order of preference on ties) under ``motion``; ``options``: the roadmap's
@@ -136,39 +143,47 @@ def refine_candidates(
     ``checker`` certifies every new segment and non-stop curve. Candidates named in
     ``optional`` (detours; list them last) stop after their shortcut when it costs more
     than :data:`PRUNE` times the best shortcut before them. ValueError when no candidate
-    gives a feasible motion (its reasons in the message)."""
+    gives a feasible motion (its reasons in the message). ``progress``: a "refinement"
+    bar over the candidates on stderr, naming the candidate and the step under way."""
     motion = motion or MotionOptions()
     w0, c0 = time.perf_counter(), time.process_time()
     memo: dict = {}
     records, by_name = [], {}
-    for name, W in candidates.items():
-        W = np.asarray(W, dtype=float)
-        rec: dict[str, Any] = {"name": name, "waypoints_in": int(W.shape[0])}
-        if motion.refine and W.shape[0] > 2:
-            bar = np.inf
-            if name in optional:
-                done = [r["stop_energy_shortcut"] for r in records if "stop_energy_shortcut" in r]
-                bar = PRUNE * min(done, default=np.inf)
-            try:
-                W = _refine_one(drive, W, checker, options, motion, memo, rec, bar)
-            except _Pruned:
-                rec.update(feasible=False, reason=f"pruned: its shortcut costs more than "
-                           f"{PRUNE:g}× the best before it")
-                records.append(rec)
-                continue
-            except ValueError as exc:  # no feasible sequence through its own segments
-                rec.update(feasible=False, reason=str(exc))
-                records.append(rec)
-                continue
-        me = trajectory_energy(drive, W, motion.execution, options=options, checker=checker,
-                               max_duration=motion.max_duration, memo=memo)
-        rec.update(waypoints=int(me.waypoints.shape[0]), execution=me.execution,
-                   total_energy=me.total_energy, duration=me.duration, feasible=me.feasible,
-                   energy_by_execution=dict(me.energy_by_execution))
-        if not me.feasible:
-            rec["reason"] = me.reason
-        records.append(rec)
-        by_name[name] = me
+    with progress_bar(len(candidates), "refinement", unit="candidate", enabled=progress,
+                      iterable=candidates.items()) as shown:
+        for name, W in shown:  # the bar advances as each candidate is done
+            W = np.asarray(W, dtype=float)
+            rec: dict[str, Any] = {"name": name, "waypoints_in": int(W.shape[0])}
+            if motion.refine and W.shape[0] > 2:
+                bar = np.inf
+                if name in optional:
+                    done = [r["stop_energy_shortcut"] for r in records
+                            if "stop_energy_shortcut" in r]
+                    bar = PRUNE * min(done, default=np.inf)
+                try:
+                    W = _refine_one(drive, W, checker, options, motion, memo, rec, bar,
+                                    stage=lambda step, n=name: shown.set_postfix_str(
+                                        f"{n}: {step}"))
+                except _Pruned:
+                    rec.update(feasible=False, reason=f"pruned: its shortcut costs more than "
+                               f"{PRUNE:g}× the best before it")
+                    records.append(rec)
+                    continue
+                except ValueError as exc:  # no feasible sequence through its own segments
+                    rec.update(feasible=False, reason=str(exc))
+                    records.append(rec)
+                    continue
+            shown.set_postfix_str(f"{name}: pricing ({motion.execution})")
+            me = trajectory_energy(drive, W, motion.execution, options=options,
+                                   checker=checker, max_duration=motion.max_duration,
+                                   memo=memo)
+            rec.update(waypoints=int(me.waypoints.shape[0]), execution=me.execution,
+                       total_energy=me.total_energy, duration=me.duration,
+                       feasible=me.feasible, energy_by_execution=dict(me.energy_by_execution))
+            if not me.feasible:
+                rec["reason"] = me.reason
+            records.append(rec)
+            by_name[name] = me
     feasible = [n for n, m in by_name.items() if m.feasible]
     if not feasible:
         why = "; ".join(f"{r['name']}: {r.get('reason', '')}" for r in records)

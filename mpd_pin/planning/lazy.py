@@ -32,6 +32,7 @@ import numpy as np
 from ..dynamics.bound import EnergyBound
 from ..dynamics.cost import EnergyCost
 from ..dynamics.simulate import edge_outcomes
+from ..progress import bar
 from ..search import Graph, Path, Planner
 from .roadmap import Roadmap, RoadmapOptions, feasibility
 
@@ -101,14 +102,17 @@ class LazyEdges:
     ``cost`` simulates (``EnergyCost``); ``options`` give the feasibility rules;
     ``bound`` (default: :class:`EnergyBound` of the cost's drive) the lower bounds. Edges
     already evaluated (a cached file) are reused and checked against the bound at once.
-    Energies are written into ``roadmap.energy`` in place.
+    Energies are written into ``roadmap.energy`` in place. ``progress``: every
+    :meth:`CostView.settle` on these edges shows a "lazy search" bar (rounds, edges
+    simulated) on stderr; an attribute, so it may be switched later.
     """
 
     def __init__(self, roadmap: Roadmap, cost: EnergyCost, options: RoadmapOptions,
-                 bound=None) -> None:
+                 bound=None, progress: bool = False) -> None:
         self.roadmap = roadmap
         self.cost = cost
         self.options = options
+        self.progress = bool(progress)
         self.bound = bound if bound is not None else EnergyBound(
             cost.drive, arrival_tolerance=options.arrival_tolerance)
         rm = roadmap
@@ -293,20 +297,27 @@ class CostView:
     def settle(self, planner: Planner) -> Path:
         """The LazySP loop: plan, simulate the path's unknown edges in one batch, enter
         their costs in one ``update_edges`` (all unevaluated ones after a bound violation),
-        repair; until the path's edges are all known. Raises NoPathError like plan()."""
+        repair; until the path's edges are all known. Raises NoPathError like plan().
+        With ``lazy.progress``, a "lazy search" bar counts this loop's rounds and shows
+        the edges simulated so far (by every search on these edges)."""
         lz = self.lazy
         rm = lz.roadmap
-        while True:
-            path = planner.plan()
-            ids = lz.edge_ids(path.nodes)
-            todo = ids[~lz.known[ids]]
-            if todo.size == 0:
-                return path
-            lz.count.rounds += 1
-            rescaled = lz.evaluate(todo)
-            if rescaled and self.kind == "energy":
-                todo = np.union1d(todo, np.flatnonzero(~rm.evaluated & ~lz.refused))
-            self._push(planner, todo)
+        with bar(None, f"lazy search ({self.kind})", unit=" rounds",
+                 enabled=lz.progress) as rounds:
+            while True:
+                path = planner.plan()
+                ids = lz.edge_ids(path.nodes)
+                todo = ids[~lz.known[ids]]
+                if todo.size == 0:
+                    return path
+                lz.count.rounds += 1
+                rounds.set_postfix_str(f"{lz.count.simulated} edges simulated (+{todo.size})")
+                rescaled = lz.evaluate(todo)
+                rounds.set_postfix_str(f"{lz.count.simulated} edges simulated", refresh=False)
+                rounds.update(1)
+                if rescaled and self.kind == "energy":
+                    todo = np.union1d(todo, np.flatnonzero(~rm.evaluated & ~lz.refused))
+                self._push(planner, todo)
 
 
 def lazy_plan(lazy: LazyEdges, planner_cls, kind: str = "energy") -> tuple[Path, Planner]:

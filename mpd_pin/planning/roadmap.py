@@ -438,18 +438,19 @@ def _check_endpoint(arm, checker, q, what: str) -> np.ndarray:
             f"[{np.round(arm.lower_limits, 6).tolist()}, {np.round(arm.upper_limits, 6).tolist()}]"
         )
     if not checker.is_free(q):
-        raise ValueError(f"{what} {np.round(q, 6).tolist()} is in collision")
+        describe = getattr(checker, "describe_collision", None)  # duck-typed checkers
+        detail = describe(q) if describe is not None else ""
+        raise ValueError(f"{what} {np.round(q, 6).tolist()} is in collision"
+                         + (f": {detail}" if detail else ""))
     return q
 
 
 def _tqdm(show_progress: bool):
-    """The progress-bar class: ``tqdm.auto`` when shown, plain ``tqdm`` when not (tqdm.auto
-    warns in Jupyter without ipywidgets even when disabled)."""
-    if show_progress:
-        from tqdm.auto import tqdm
-    else:
-        from tqdm import tqdm
-    return tqdm
+    """The progress-bar class (:func:`mpd_pin.progress.tqdm_class`); a module-level name
+    so that tests can replace the bars of a build."""
+    from ..progress import tqdm_class
+
+    return tqdm_class(show_progress)
 
 
 def _checker_fingerprint(arm, checker, checker_fingerprint: str | None) -> str:
@@ -512,13 +513,23 @@ def _neighbour_pairs(nodes: np.ndarray, k: int, periodic: np.ndarray | None = No
     return np.unique(np.stack([lo, hi], axis=1), axis=0) if lo.size else np.zeros((0, 2), int)
 
 
-def _free_pairs(checker, nodes: np.ndarray, pairs: np.ndarray, resolution: float) -> np.ndarray:
+def _free_pairs(checker, nodes: np.ndarray, pairs: np.ndarray, resolution: float,
+                tqdm=None, show_progress: bool = False) -> np.ndarray:
     """Collision filtering: the pairs whose straight edge is free at ``resolution`` rad
-    (the shorter way round on continuous joints, docs/design.md §1d)."""
+    (the shorter way round on continuous joints, docs/design.md §1d). With
+    ``show_progress``, an "edge checks" bar of the class ``tqdm`` follows the checker's
+    chunks (``edges_free(..., progress=)``; the same answers as one batch)."""
     if not len(pairs):
         return pairs[np.zeros(0, bool)]
     Q0 = nodes[pairs[:, 0]]
-    free = checker.edges_free(Q0, checker.arm.edge_target(Q0, nodes[pairs[:, 1]]), resolution)
+    Q1 = checker.arm.edge_target(Q0, nodes[pairs[:, 1]])
+    if not show_progress:
+        free = checker.edges_free(Q0, Q1, resolution)
+    else:
+        with (tqdm or _tqdm(True))(total=len(pairs), desc="edge checks", unit="edge",
+                                   leave=False) as bar:
+            free = checker.edges_free(Q0, Q1, resolution,
+                                      progress=lambda d: bar.update(d - bar.n))
     return pairs[np.asarray(free, dtype=bool)]
 
 
@@ -627,8 +638,9 @@ def build_roadmap(
     holding unevaluated edges has them simulated (refused ones dropped) and is saved again.
 
     ``checker`` is a validity checker (``arm``, ``is_free``, ``is_free_batch``,
-    ``edges_free``, ``fingerprint``) for the known world; its arm must be the
-    cost's drive arm (the same object or an equal fingerprint). ``checker_fingerprint``
+    ``edges_free`` — with a ``progress=`` callback when ``show_progress`` —,
+    ``fingerprint``) for the known world; its arm must be the cost's drive arm (the same
+    object or an equal fingerprint). ``checker_fingerprint``
     overrides ``checker.fingerprint()`` in the key (it must change whenever the
     free configurations or edges do). With ``cache`` (a ``.npz`` path), a file
     built with the same key is loaded instead of rebuilding; a file with another
@@ -664,7 +676,7 @@ def build_roadmap(
     pairs = _neighbour_pairs(nodes, options.k, arm.continuous_mask)
     timings["neighbours"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    pairs = _free_pairs(checker, nodes, pairs, options.resolution)
+    pairs = _free_pairs(checker, nodes, pairs, options.resolution, tqdm, show_progress)
     timings["edge_checks"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     if evaluate:

@@ -2,10 +2,12 @@
 
 * :func:`plot_arm_path` — the arm at every path node over the obstacles, with
   the end-effector trace (x–z plane for planar arms; a 3-D view otherwise, where
-  boxes, cylinders, spheres and extruded polygons are drawn as shaded solids);
+  boxes, cylinders, spheres and extruded polygons are drawn as translucent solids
+  beneath the arm's thick links, in a fixed draw order — docs/design.md §7c);
 * :func:`plot_joint_angles` — joint angles (rad) against time (s), for both papers
   (paper 002's figures in :mod:`mpd_pin.twolink.plots` use it too);
-* :func:`plot_cumulative_energy` — E⁺ per joint (J) accumulated against time (s).
+* :func:`plot_cumulative_energy` — E⁺ per joint (J) accumulated against time (s),
+  optionally with labelled vertical lines at given times (e.g. re-planning).
 
 All functions return a ``matplotlib.figure.Figure`` and never call ``show``.
 """
@@ -148,38 +150,58 @@ def _uniform_faces(faces: list[np.ndarray]) -> np.ndarray:
     return np.stack([np.concatenate([f, np.repeat(f[-1:], k - len(f), axis=0)]) for f in faces])
 
 
-def draw_world_3d(ax, world: World | None, *, show_hidden: bool = True) -> list:
-    """Draw obstacles and hazards as shaded solids on a 3-D axes (``projection="3d"``).
+def draw_world_3d(ax, world: World | None, *, show_hidden: bool = True,
+                  zorder: float = 1.0) -> list:
+    """Draw obstacles and hazards as translucent solids on a 3-D axes (``projection="3d"``).
 
-    Obstacles grey, hazards translucent red, obstacles not yet known translucent
-    purple with dashed edges. Each collection's ``gid`` is the obstacle's name.
-    Returns the ``Poly3DCollection`` objects.
+    Obstacles grey, hazards red, obstacles not yet known purple with dashed edges; faces
+    translucent with light edges, so that lines drawn over them stay visible. Each
+    collection's ``gid`` is the obstacle's name, its zorder in [``zorder``, ``zorder`` +
+    0.5): farther from the axes' current view first (matplotlib orders whole collections
+    by zorder when ``ax.computed_zorder`` is False). Returns the ``Poly3DCollection``
+    objects.
     """
+    from matplotlib.colors import to_rgba
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
+    items = list(_drawn_items(world, show_hidden))
+    eye = _view_direction(ax)
+    depth = [float(np.dot(eye, shape.position)) for _, shape, _, _ in items]
+    rank = {k: r for r, k in enumerate(np.argsort(depth, kind="stable"))}
     out = []
-    for item, shape, hidden, color in _drawn_items(world, show_hidden):
+    for k, (item, shape, hidden, color) in enumerate(items):
         if isinstance(item, Hazard):
-            alpha = 0.25
+            alpha = 0.2
         elif item.hidden:
-            alpha = 0.25 if hidden else 0.6
+            alpha = 0.15 if hidden else 0.3
         else:
-            alpha = 0.55
-        width = {Sphere: 0.0, Cylinder: 0.2}.get(type(shape), 0.6)  # curved: faint facets
+            alpha = 0.25
+        width = {Sphere: 0.0, Cylinder: 0.15}.get(type(shape), 0.5)  # curved: faint facets
+        z = zorder + 0.5 * rank[k] / max(len(items), 1)
         coll = Poly3DCollection(
             _uniform_faces(shape_faces(shape)),
-            facecolors=color,
-            edgecolors="black" if width else "none",
+            facecolors=to_rgba(color, alpha),
+            edgecolors=to_rgba(color, 0.6) if width else "none",
             linewidths=width,
             linestyles="--" if hidden else "-",
-            alpha=alpha,
+            zorder=z,
         )
         coll.set_gid(item.name)
         ax.add_collection3d(coll)
         out.append(coll)
-        x, y, z = shape.position
-        ax.text(x, y, z, item.name, fontsize=7)
+        top = np.concatenate(shape_faces(shape))  # the name above the solid's top
+        x, y = shape.position[0], shape.position[1]
+        ax.text(x, y, float(top[:, 2].max()), item.name, fontsize=7, color="0.25",
+                ha="center", va="bottom", zorder=zorder + 0.5)
     return out
+
+
+def _view_direction(ax) -> np.ndarray:
+    """Unit vector from the scene towards the viewer of a 3-D axes (its elevation and
+    azimuth, degrees); +z for a 2-D axes."""
+    elev, azim = getattr(ax, "elev", 90.0), getattr(ax, "azim", 0.0)
+    e, a = np.radians(elev), np.radians(azim)
+    return np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
 
 
 def arm_points(arm: Arm, q: np.ndarray, ee_frame: str | None = None) -> np.ndarray:
@@ -227,6 +249,12 @@ TRACE_COLOR = "#e07a5f"
 OTHER_COLORS = ("#81b29a", "#f2cc8f", "#3d405b")
 #: Path poses: light → dark along the path (the colour bar explains it).
 POSE_CMAP_RANGE = (0.35, 1.0)
+#: 3-D path figure: draw order (``ax.computed_zorder`` is False). Obstacles first, in
+#: [Z_WORLD, Z_WORLD + 0.5) (see :func:`draw_world_3d`), then compared paths, the arm's
+#: poses, the travelled trace and base, the end markers and their labels on top.
+Z_WORLD, Z_OTHERS, Z_POSES, Z_TRACE, Z_ENDS, Z_LABELS = 1.0, 3.0, 4.0, 5.0, 6.0, 8.0
+#: 3-D path figure: line width (points) of the arm's links.
+LINK_WIDTH_3D = 3.5
 
 
 def _pose_colormap():
@@ -327,11 +355,17 @@ def _time_norm(n: int, node_times: Sequence[float] | None):
 
 
 def _mark_ends(ax, p0: np.ndarray, p1: np.ndarray, planar: bool) -> None:
-    """End-effector markers labelled "start" and "goal"."""
+    """End-effector markers labelled "start" and "goal" (3-D: also written beside them, on
+    a white box above everything else)."""
     for p, label, marker, color in ((p0, "start", "o", START_COLOR), (p1, "goal", "*", GOAL_COLOR)):
         xyz = (p[0], p[2]) if planar else (p[0], p[1], p[2])
         ax.plot(*[[c] for c in xyz], marker=marker, ms=13 if marker == "*" else 10,
-                color=color, mec="black", ls="none", zorder=6, label=label)
+                color=color, mec="black", ls="none", zorder=Z_ENDS, label=label)
+        if not planar:
+            ax.text(*xyz, f"  {label}", fontsize=9, fontweight="bold", color=color,
+                    ha="left", va="bottom", zorder=Z_LABELS, gid=f"{label}-label",
+                    bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": color,
+                          "alpha": 0.85})
 
 
 def _mark_detections(ax, arm: Arm, detections: Sequence[Detection], planar: bool) -> None:
@@ -351,9 +385,11 @@ def _mark_detections(ax, arm: Arm, detections: Sequence[Detection], planar: bool
                         arrowprops={"arrowstyle": "->", "color": HIDDEN_COLOR}, gid="detection")
         else:
             ax.plot([p[0]], [p[1]], [p[2]], "X", ms=12, color=HIDDEN_COLOR, ls="none",
-                    label=label)
+                    zorder=Z_ENDS + 1, label=label)
             ax.text(p[0], p[1], p[2], " " + text.replace("\n", " "), fontsize=8,
-                    color=HIDDEN_COLOR, gid="detection")
+                    color=HIDDEN_COLOR, zorder=Z_LABELS, gid="detection",
+                    bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "none",
+                          "alpha": 0.8})
 
 
 def _draw_planar(ax, arm, world, Q_nodes, trace, others, colors) -> None:
@@ -387,31 +423,58 @@ def _draw_planar(ax, arm, world, Q_nodes, trace, others, colors) -> None:
     ax.set_ylabel("z (m)")
 
 
+def _base_position(arm: Arm) -> np.ndarray:
+    """World position (m) of the link the first joint is mounted on (the arm's base)."""
+    m = arm.model
+    joint_frame = m.frames[m.getFrameId(m.names[1])]
+    parent = m.frames[joint_frame.parentFrame]
+    if parent.parentJoint != 0:  # not fixed to the world: cannot happen for a fixed-base arm
+        return np.zeros(3)
+    return parent.placement.translation.copy()
+
+
 def _draw_3d(ax, arm, world, Q_nodes, trace, others, colors) -> None:
-    """The 3-D content of :func:`plot_arm_path`, framed with equal scales on all axes."""
-    ax.plot(trace[:, 0], trace[:, 1], trace[:, 2], "-", color=TRACE_COLOR,
-            label="end-effector trace (travelled)")
-    for k, (q, c) in enumerate(zip(Q_nodes, colors, strict=True)):
-        p = arm_points(arm, q)
-        ax.plot(p[:, 0], p[:, 1], p[:, 2], "-o", color=c, alpha=0.7, ms=2,
-                label="arm at each path node" if k == 0 else None)
-    draw_world_3d(ax, world)
+    """The 3-D content of :func:`plot_arm_path`, framed with equal scales on all axes.
+
+    Matplotlib's automatic depth sort orders whole artists by one depth each, so a large
+    box (a table) can be drawn over lines above it; instead the order is fixed
+    (``computed_zorder`` False): translucent obstacles below every line."""
+    ax.computed_zorder = False
+    ax.set_proj_type("ortho")  # no perspective: heights compare across the figure
+    draw_world_3d(ax, world, zorder=Z_WORLD)
     for (name, Qo), col in zip(others.items(), OTHER_COLORS, strict=False):
         tr = ee_trace(arm, Qo)
-        ax.plot(tr[:, 0], tr[:, 1], tr[:, 2], "--", color=col, lw=1.5,
+        ax.plot(tr[:, 0], tr[:, 1], tr[:, 2], "--", color=col, lw=1.5, zorder=Z_OTHERS,
                 label=f"{name}: end effector")
-    pts = [trace, np.zeros((1, 3))]
+    for k, (q, c) in enumerate(zip(Q_nodes, colors, strict=True)):
+        p = arm_points(arm, q)
+        ax.plot(p[:, 0], p[:, 1], p[:, 2], "-o", color=c, lw=LINK_WIDTH_3D, ms=3.5,
+                mec="white", mew=0.5, solid_capstyle="round", zorder=Z_POSES + k / len(Q_nodes),
+                gid="pose", label="arm at each path node" if k == 0 else None)
+    ax.plot(trace[:, 0], trace[:, 1], trace[:, 2], "-", color=TRACE_COLOR, lw=2.0,
+            zorder=Z_TRACE, gid="trace", label="end-effector trace (travelled)")
+    base, mount = _base_position(arm), arm.model.jointPlacements[1].translation
+    ax.plot([base[0], mount[0]], [base[1], mount[1]], [base[2], mount[2]], "-",
+            color="0.2", lw=LINK_WIDTH_3D + 1.5, solid_capstyle="butt", zorder=Z_TRACE,
+            gid="pedestal")
+    ax.plot([base[0]], [base[1]], [base[2]], "ks", ms=9, ls="none", zorder=Z_TRACE,
+            gid="base", label="base")
+    pts = [trace, base[None, :]]
     pts += [arm_points(arm, q) for q in Q_nodes]
+    pts += [ee_trace(arm, Qo) for Qo in others.values()]
     for item in world or ():
         shape = item.shape if isinstance(item, Hazard) else item
         pts += shape_faces(shape)
     P = np.concatenate(pts)
     lo, hi = P.min(axis=0), P.max(axis=0)
-    centre, half = (lo + hi) / 2.0, max(float(np.max(hi - lo)) / 2.0, 1e-3) * 1.05
-    ax.set_xlim(centre[0] - half, centre[0] + half)
-    ax.set_ylim(centre[1] - half, centre[1] + half)
-    ax.set_zlim(centre[2] - half, centre[2] + half)
-    ax.set_box_aspect((1.0, 1.0, 1.0))
+    # Each axis spans its own data (5 % margin, at least a tenth of the largest span) and
+    # the box's sides are proportional to the spans: one metre is as long on every axis.
+    span = np.maximum(hi - lo, 0.1 * max(float(np.max(hi - lo)), 1e-2)) * 1.05
+    centre = (lo + hi) / 2.0
+    ax.set_xlim(centre[0] - span[0] / 2, centre[0] + span[0] / 2)
+    ax.set_ylim(centre[1] - span[1] / 2, centre[1] + span[1] / 2)
+    ax.set_zlim(centre[2] - span[2] / 2, centre[2] + span[2] / 2)
+    ax.set_box_aspect(tuple(span / span.max()))
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)")
@@ -464,12 +527,13 @@ def plot_arm_path(
     ends = arm_points(arm, q0)[-1], arm_points(arm, q1)[-1]
     _mark_ends(ax, *ends, planar)
     _mark_detections(ax, arm, detections, planar)
-    cbar = fig.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.7, pad=0.02)
+    cbar = fig.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.7,
+                        pad=0.02 if planar else 0.1)  # 3-D: room for the z label
     cbar.set_label(cbar_label)
-    if planar:  # below the axes; 3-D: in its upper left corner (the view leaves room there)
+    if planar:  # below the axes; 3-D: below the (flat) box, where the view leaves room
         ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=2, fontsize="small")
     else:
-        ax.legend(loc="upper left", fontsize="small")
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=2, fontsize="small")
     ax.set_title(title or f"{arm.name}: path of {len(Q_nodes)} nodes")
     fig.tight_layout()
     return fig
@@ -510,13 +574,16 @@ def plot_cumulative_energy(
     *,
     title: str = "",
     compare: tuple[np.ndarray, np.ndarray, str] | None = None,
+    marks: Sequence[tuple[float, str]] = (),
 ):
     """Cumulative E⁺ per joint (J) and their total against time (s); ``compare`` =
     (t (s), cumulative total E⁺ (J), label) of another path (e.g. the shortest joint-space
-    path, docs/design.md §7c), drawn as a second total curve."""
+    path, docs/design.md §7c), drawn as a second total curve; ``marks`` = (time (s), label)
+    pairs, each drawn as a vertical dashed line with its label written along it (e.g. the
+    times the arm re-planned)."""
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 4))
+    fig, ax = plt.subplots(figsize=(8, 5) if marks else (8, 4))
     for k, name in enumerate(joint_names):
         ax.plot(t, energy_t[:, k], label=f"{name}: {energy_t[-1, k]:.4g} J")
     total = "total (energy-optimal)" if compare is not None else "total"
@@ -525,9 +592,19 @@ def plot_cumulative_energy(
         tc, ec, name = compare
         ec = np.asarray(ec, float)
         ax.plot(tc, ec, ":", color="#d62828", lw=2, label=f"total, {name}: {ec[-1]:.4g} J")
+    for tm, text in marks:
+        ax.axvline(float(tm), color=HIDDEN_COLOR, ls="--", lw=1.2, zorder=1.5, gid="mark")
+        ax.annotate(text, (float(tm), 0.97), xycoords=("data", "axes fraction"),
+                    xytext=(-4, 0), textcoords="offset points", rotation=90, ha="right",
+                    va="top", fontsize=7, color=HIDDEN_COLOR, gid="mark",
+                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none",
+                          "alpha": 0.8})
     ax.set_xlabel("time (s)")
     ax.set_ylabel("energy drawn E⁺ (J)")
-    ax.legend(fontsize="small", ncol=2)
+    if marks:  # the labels run down from the top: the legend goes below the axes
+        ax.legend(fontsize="small", ncol=3, loc="upper center", bbox_to_anchor=(0.5, -0.15))
+    else:
+        ax.legend(fontsize="small", ncol=2)
     ax.set_title(title or "cumulative electrical energy per joint")
     fig.tight_layout()
     return fig

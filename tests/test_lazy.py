@@ -384,7 +384,11 @@ def test_result_json_fields_lazy_eager_and_cache_reuse(tmp_path):
 
     cache = tmp_path / "rm.npz"
     runs = {}
-    for tag, extra in (("lazy", ["--cache", str(cache)]), ("again", ["--cache", str(cache)]),
+    # evaluation only: every edge collision-checked first, so that the edge counts compare
+    # (lazy collision checking: tests/test_lazy_collision.py)
+    eager_checks = ["--collision", "eager"]
+    for tag, extra in (("lazy", ["--cache", str(cache), *eager_checks]),
+                       ("again", ["--cache", str(cache), *eager_checks]),
                        ("eager", ["--evaluation", "eager"])):
         out = tmp_path / tag
         assert main(["run", "case1", "--out", str(out), "--quiet", "--no-replay", *extra]) == 0

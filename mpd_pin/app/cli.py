@@ -6,6 +6,7 @@
     mpd-pin run NAME|FILE --out DIR         plan a scenario, write result.json, plots, replay.html
         [--seed N] [--planner NAME]         (planners: mpd_pin.search.PLANNERS, listed by --help)
         [--evaluation lazy|eager]           (override [roadmap] evaluation)
+        [--collision lazy|eager]            (override [roadmap] collision)
         [--nodes N] [--execution auto|stop|nonstop] [--no-refine] [--quiet] [--no-replay]
         [--cache FILE] [--scheduler ADDRESS|local[:N]]   roadmap file; Dask cluster (§4h)
     mpd-pin energy NAME|FILE PATHFILE       price a path planned elsewhere (CSV or JointTrajectory
@@ -86,7 +87,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     from .kinds import load_scenario, run_scenario, summary_line
 
     scn = load_scenario(args.scenario, seed=args.seed, planner=args.planner)
-    flags = {"--evaluation": args.evaluation, "--scheduler": args.scheduler,
+    flags = {"--evaluation": args.evaluation, "--collision": args.collision,
+             "--scheduler": args.scheduler,
              "--execution": args.execution, "--no-refine": args.no_refine or None,
              "--nodes": args.nodes}
     given = [flag for flag, value in flags.items() if value is not None]
@@ -100,7 +102,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         from .planner import configure
 
         try:
-            scn = configure(scn, evaluation=args.evaluation, scheduler=args.scheduler,
+            scn = configure(scn, evaluation=args.evaluation, collision=args.collision,
+                            scheduler=args.scheduler,
                             execution=args.execution, refine=False if args.no_refine else None,
                             num_nodes=args.nodes)
         except ConfigError as exc:
@@ -212,6 +215,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--evaluation", choices=("lazy", "eager"), default=None,
                    help="override [roadmap] evaluation: simulate edges as the search needs "
                         "them (lazy) or all before it (eager)")
+    p.add_argument("--collision", choices=("lazy", "eager"), default=None,
+                   help="override [roadmap] collision: check edges for collision as the "
+                        "search needs them (lazy) or all before it (eager)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS|local[:N]",
                    help="where edge energies run: a Dask scheduler address (tcp://host:8786), "
                         "local[:N] (a LocalCluster of N processes) or threads (this process; "

@@ -126,9 +126,8 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
         cands[SHORTEST] = roadmap.nodes[shortest.path]
     if opts.refine and opts.alternatives:
         taken = [list(plan.path)] + ([list(shortest.path)] if shortest is not None else [])
-        refused = setup.lazy.refused if setup.lazy is not None else None
-        for k, path in enumerate(alternative_paths(roadmap, taken, opts.alternatives,
-                                                   drive.arm, refused)):
+        for k, path in enumerate(certified_alternatives(setup, taken, opts.alternatives,
+                                                        drive.arm)):
             cands[f"alternative {k + 1}"] = roadmap.nodes[path]
     detours = frozenset(n for n in cands if n.startswith("alternative"))
     try:
@@ -194,6 +193,23 @@ def alternative_paths(roadmap, taken: list[list[int]], count: int, arm,
         out.append(path)
         banned |= set(path[1:-1])
     return out
+
+
+def certified_alternatives(setup: Setup, taken: list[list[int]], count: int,
+                           arm) -> list[list[int]]:
+    """:func:`alternative_paths` whose edges are collision-checked: on a lazily checked
+    roadmap (docs/design.md §4g) the detours' unchecked edges are certified, and while one
+    is blocked (then refused) the detours are searched again — each round refuses at least
+    one edge, so this ends."""
+    lazy = setup.lazy
+    refused = lazy.refused if lazy is not None else None
+    while True:
+        paths = alternative_paths(setup.roadmap, taken, count, arm, refused)
+        if lazy is None or not paths:
+            return paths
+        ids = np.concatenate([lazy.edge_ids(p) for p in paths])
+        if not lazy.certify(ids).size:
+            return paths
 
 
 def roadmap_path_record(setup: Setup, plan: PlanResult, arm) -> dict[str, Any]:

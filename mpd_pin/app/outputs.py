@@ -331,10 +331,13 @@ def _roadmap_record(
         dropped = refused - lazy.count.refused  # refused in an earlier run, not in the arrays
         num_edges, evaluated = roadmap.num_edges + dropped, lazy.edges_evaluated + dropped
         lazy_rec = lazy.record()
+    pairs = roadmap.pairs_checked + (lazy.count.pairs_checked if lazy is not None else 0)
     return {
         "num_nodes": roadmap.num_nodes,  # options.num_nodes samples + start + goal
         "num_edges": num_edges,
         "evaluation": setup.evaluation,
+        "collision": setup.collision,
+        "edges_checked": 2 * int(pairs),  # directed: both directions of each pair checked
         "edges_evaluated": evaluated,
         "lazy": lazy_rec,
         "evaluation_notes": list(setup.notes),

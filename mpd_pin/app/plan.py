@@ -84,6 +84,8 @@ class Setup:
     notes: list[str] = field(default_factory=list)
     #: the edge-energy interface the roadmap was costed with (later queries use it too)
     cost: EnergyCost | None = None
+    #: "lazy" or "eager" as run: when the roadmap's edges are collision-checked (§4g)
+    collision: str = "eager"
 
 
 @dataclass
@@ -128,15 +130,17 @@ def prepare(
         evaluation = "eager"
         notes.append("a finite planner.hazard_penalty takes its floor from the mean energy of "
                      "every edge: evaluated eagerly")
+    # eager evaluation simulates every edge, so it checks every edge first (§4g)
+    collision = getattr(scn, "collision", "eager") if evaluation == "lazy" else "eager"
     roadmap = build_roadmap(
         cost, checker, scn.start, scn.goal, scn.options, cache=cache, show_progress=show_progress,
-        evaluate=evaluation == "eager",
+        evaluate=evaluation == "eager", check_edges=collision == "eager",
     )
-    lazy = (LazyEdges(roadmap, cost, scn.options, progress=show_progress)
+    lazy = (LazyEdges(roadmap, cost, scn.options, progress=show_progress, checker=checker)
             if evaluation == "lazy" else None)
     return Setup(drive, world, checker, roadmap, world.to_dict(), cost.compute_record(),
                  evaluation=evaluation, lazy=lazy, cache=None if cache is None else Path(cache),
-                 notes=notes, cost=cost)
+                 notes=notes, cost=cost, collision=collision)
 
 
 def requery(setup: Setup, scn: EnergyScenario, *, show_progress: bool = True) -> Setup:
@@ -150,11 +154,13 @@ def requery(setup: Setup, scn: EnergyScenario, *, show_progress: bool = True) ->
     lazy = setup.lazy
     base = setup.roadmap if lazy is None else lazy.roadmap.without_edges(lazy.refused)
     roadmap = add_query(base, setup.cost, setup.checker, scn.start, scn.goal, scn.options,
-                        evaluate=lazy is None, show_progress=show_progress)
+                        evaluate=lazy is None, check_edges=setup.collision == "eager",
+                        show_progress=show_progress)
     return replace(
         setup, roadmap=roadmap, world_record=setup.world.to_dict(), cache=None,
         lazy=None if lazy is None else LazyEdges(roadmap, setup.cost, scn.options,
-                                                 progress=show_progress),
+                                                 progress=show_progress,
+                                                 checker=setup.checker),
         notes=list(setup.notes),
     )
 

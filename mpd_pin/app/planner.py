@@ -26,7 +26,7 @@ import numpy as np
 
 from ..dynamics.motor import Drive
 from ..motion.refine import MotionOptions
-from ..planning.roadmap import RoadmapOptions, npz_path
+from ..planning.roadmap import COLLISIONS, RoadmapOptions, npz_path
 from ..search.registry import DEFAULT_PLANNER, PLANNERS
 from ..world import World
 from .config import ConfigError
@@ -45,9 +45,9 @@ __all__ = ["EnergyPlanner", "plan", "configure"]
 def configure(scn: EnergyScenario, *, seed: int | None = None, planner: str | None = None,
               evaluation: str | None = None, execution: str | None = None,
               refine: bool | None = None, scheduler: Any = None,
-              num_nodes: int | None = None) -> EnergyScenario:
+              num_nodes: int | None = None, collision: str | None = None) -> EnergyScenario:
     """``scn`` with some settings replaced (None: keep the scenario's): ``[roadmap] seed``,
-    ``num_nodes`` and ``evaluation`` ("lazy"/"eager"), ``[planner] algorithm``,
+    ``num_nodes``, ``evaluation`` and ``collision`` ("lazy"/"eager"), ``[planner] algorithm``,
     ``[motion] execution`` ("auto"/"stop"/"nonstop") and ``refine``, ``[compute]
     scheduler`` ("threads", "local[:N]", an address, or a Dask client). ConfigError (one
     line naming the setting) for a bad value."""
@@ -73,6 +73,8 @@ def configure(scn: EnergyScenario, *, seed: int | None = None, planner: str | No
         raise ConfigError(f"planner: {planner!r} is not one of {sorted(PLANNERS)}")
     if evaluation is not None and evaluation not in EVALUATIONS:
         raise ConfigError(f"evaluation: {evaluation!r} is not one of {list(EVALUATIONS)}")
+    if collision is not None and collision not in COLLISIONS:
+        raise ConfigError(f"collision: {collision!r} is not one of {list(COLLISIONS)}")
     if execution is not None and execution not in EXECUTIONS:
         raise ConfigError(f"execution: {execution!r} is not one of {list(EXECUTIONS)}")
     motion = scn.motion
@@ -90,7 +92,8 @@ def configure(scn: EnergyScenario, *, seed: int | None = None, planner: str | No
     elif scheduler is None:
         scheduler = scn.scheduler
     return replace(scn, options=options, planner=planner or scn.planner,
-                   evaluation=evaluation or scn.evaluation, motion=motion, scheduler=scheduler)
+                   evaluation=evaluation or scn.evaluation, motion=motion, scheduler=scheduler,
+                   collision=collision or scn.collision)
 
 
 def _configuration(q: Any, nq: int, what: str) -> np.ndarray:
@@ -114,6 +117,8 @@ class EnergyPlanner:
     world: a :class:`~mpd_pin.World` of obstacles and hazard zones (default: empty);
     roadmap: :class:`~mpd_pin.RoadmapOptions` (nodes, k, seed, edge timing, dt);
     evaluation: "lazy" (simulate the edges the search needs) or "eager";
+    collision: "lazy" (collision-check the edges the search needs) or "eager" (all first;
+    always with eager evaluation);
     planner: a name of ``mpd_pin.search.PLANNERS`` (default MPD* Lite);
     motion: :class:`~mpd_pin.MotionOptions` (execution, refinement, max_duration s);
     sensor_range: m, required when the world has hidden obstacles;
@@ -128,6 +133,7 @@ class EnergyPlanner:
 
     def __init__(self, drive: Drive, world: World | None = None, *,
                  roadmap: RoadmapOptions | None = None, evaluation: str = "lazy",
+                 collision: str = "lazy",
                  planner: str = DEFAULT_PLANNER, motion: MotionOptions | None = None,
                  sensor_range: float | None = None, hazard_penalty: float = math.inf,
                  scheduler: Any = None, cache: str | os.PathLike | None = None,
@@ -151,7 +157,8 @@ class EnergyPlanner:
             sensor_range=sensor_range, hazard_penalty=float(hazard_penalty),
             motion=motion if motion is not None else MotionOptions(), source="python",
         )
-        self._init(configure(scn, planner=planner, evaluation=evaluation, scheduler=scheduler),
+        self._init(configure(scn, planner=planner, evaluation=evaluation, scheduler=scheduler,
+                             collision=collision),
                    cache, show_progress, trajectory_rate)
 
     @classmethod
@@ -277,8 +284,9 @@ def plan(scenario: EnergyScenario | str | os.PathLike, *, seed: int | None = Non
     """Plan a scenario — an :class:`~mpd_pin.app.scenario.EnergyScenario`, a built-in name
     or a ``.toml`` path — exactly as ``mpd-pin run`` does: a
     :class:`~mpd_pin.app.planned.Plan` (energies J). ``seed`` and ``settings`` (the
-    keywords of :func:`configure`: planner, evaluation, execution, refine, scheduler,
-    num_nodes) override the scenario's; ``cache`` is a roadmap ``.npz`` to reuse or write.
+    keywords of :func:`configure`: planner, evaluation, collision, execution, refine,
+    scheduler, num_nodes) override the scenario's; ``cache`` is a roadmap ``.npz`` to reuse
+    or write.
     """
     if isinstance(scenario, (str, os.PathLike)):
         from .kinds import load_scenario

@@ -24,6 +24,7 @@ A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
 
     [roadmap]                  # RoadmapOptions fields, and:
     evaluation = "lazy"        # or "eager": simulate every edge before searching
+    collision = "lazy"         # or "eager": collision-check every edge before searching
     num_nodes = 150
     k = 10
     seed = 1
@@ -80,7 +81,7 @@ from ..arm.model import Arm
 from ..dynamics.motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
 from ..dynamics.sizing import check_holding, sized_motors
 from ..motion.refine import MotionOptions
-from ..planning.roadmap import RoadmapOptions
+from ..planning.roadmap import COLLISIONS, RoadmapOptions
 from ..search.registry import DEFAULT_PLANNER, PLANNERS
 from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
 from .arm_source import arm_from_table
@@ -139,6 +140,8 @@ class EnergyScenario:
     evaluation: str = "lazy"
     #: the returned motion: execution, refinement, duration limit (docs/design.md §9)
     motion: MotionOptions = field(default_factory=MotionOptions)
+    #: "lazy" (certify the edges the search needs) or "eager" (docs/design.md §4g)
+    collision: str = "lazy"
 
     def drive(self) -> Drive:
         return Drive(self.arm, self.motor, self.kp, self.kd, feedforward=self.feedforward)
@@ -507,6 +510,7 @@ def parse_energy_scenario(
     apply_joint_limits(top.table("limits"), arm)
     roadmap_t = top.table("roadmap")
     evaluation = roadmap_t.string("evaluation", "lazy", choices=EVALUATIONS)
+    collision = roadmap_t.string("collision", "lazy", choices=COLLISIONS)
     options = _options(roadmap_t)
     if seed is not None:
         options = replace(options, seed=int(seed))
@@ -578,4 +582,5 @@ def parse_energy_scenario(
         evaluation=evaluation,
         scheduler=scheduler,
         motion=motion,
+        collision=collision,
     )

@@ -31,60 +31,16 @@ import numpy as np
 
 from ..dynamics.bound import EnergyBound
 from ..dynamics.cost import EnergyCost
-from ..dynamics.simulate import edge_outcomes
 from ..progress import bar
 from ..search import Graph, Path, Planner
-from .roadmap import Roadmap, RoadmapOptions, feasibility
+from .evaluate import SMALL_BATCH, certify_pairs, edge_target, evaluate_edges
+from .roadmap import Roadmap, RoadmapOptions
 
-__all__ = ["LazyEdges", "CostView", "SAFETY", "evaluate_edges", "lazy_plan"]
-
-#: Rounds of at most this many edges run in this process on one thread, whatever the
-#: executor: measured on the planar 3-link arm, a 4-edge batch took 30 ms on 1 thread
-#: against 85 ms on 2 (16 edges: 46 vs 95 ms, 64: 102 vs 147 ms), and lazy rounds sent to
-#: a LocalCluster ran at 0.33–1.2× the in-process speed (docs/design.md §4h).
-SMALL_BATCH = 128
+__all__ = ["LazyEdges", "CostView", "SAFETY", "SMALL_BATCH", "evaluate_edges", "lazy_plan"]
 
 #: After a bound violation, unevaluated bounds are scaled to this fraction of the smallest
 #: true/bound ratio observed (docs/design.md §4g).
 SAFETY = 0.9
-
-
-def evaluate_edges(
-    cost: EnergyCost, roadmap: Roadmap, ids: np.ndarray, options: RoadmapOptions,
-    progress=None,
-) -> np.ndarray:
-    """Simulate the roadmap edges ``ids`` (one batch through ``cost.outcomes``) and write
-    the E⁺ per joint (J) of the feasible ones into ``roadmap.energy``; the refused ones
-    stay NaN and are counted in ``roadmap.edge_counts``. Returns the (len(ids),) bool mask
-    of the refused edges (docs/design.md §4e, §4g)."""
-    ids = np.asarray(ids, dtype=np.int64)
-    if ids.size == 0:
-        return np.zeros(0, dtype=bool)
-    model = cost.drive.arm.model
-    nodes = roadmap.nodes
-    Q0, Q1, T = nodes[roadmap.src[ids]], nodes[roadmap.dst[ids]], roadmap.durations[ids]
-    if ids.size <= SMALL_BATCH and hasattr(cost, "drive") and hasattr(cost, "dt"):
-        # a LazySP round in this process on one thread, also with a cluster (round trips
-        # do not pay for a few edges, docs/design.md §4h); the same rows (§4g)
-        out = edge_outcomes(cost.drive, Q0, _target(cost, Q0, Q1), T, cost.dt, threads=1,
-                            progress=progress)
-    else:  # the executor seam; the shorter way round is taken inside outcomes (§1d)
-        out = cost.outcomes(Q0, Q1, T, progress=progress)
-    over, missed = feasibility(out, options, model)
-    refused = over | missed
-    energy = np.asarray(out.energy, float)
-    roadmap.energy[ids[~refused]] = energy[~refused]
-    counts = roadmap.edge_counts
-    counts["refused_effort"] = counts.get("refused_effort", 0) + int(over.sum())
-    counts["refused_arrival"] = counts.get("refused_arrival", 0) + int((missed & ~over).sum())
-    return refused
-
-
-def _target(cost, Q0: np.ndarray, Q1: np.ndarray) -> np.ndarray:
-    """Where the edges Q0 → Q1 end: the shorter way round on continuous joints (§1d)."""
-    arm = getattr(getattr(cost, "drive", None), "arm", None)
-    target = getattr(arm, "edge_target", None)
-    return target(Q0, Q1) if callable(target) else np.asarray(Q1, dtype=float)
 
 
 @dataclass
@@ -94,6 +50,11 @@ class _Counters:
     refused: int = 0
     violations: int = 0
     simulate_seconds: float = 0.0
+    #: undirected node pairs whose edge the collision checker certified or blocked
+    pairs_checked: int = 0
+    #: directed edges found in collision by those checks
+    collided: int = 0
+    check_seconds: float = 0.0
 
 
 class LazyEdges:
@@ -105,20 +66,32 @@ class LazyEdges:
     Energies are written into ``roadmap.energy`` in place. ``progress``: every
     :meth:`CostView.settle` on these edges shows a "lazy search" bar (rounds, edges
     simulated) on stderr; an attribute, so it may be switched later.
+
+    A roadmap whose edges are not all collision-checked (``roadmap.checked``, lazy
+    collision checking) needs ``checker``: the search certifies an edge at ``resolution``
+    rad (default ``options.resolution``) before simulating it, and a blocked edge (both
+    directions) becomes ∞ like a refused one (docs/design.md §4g).
     """
 
     def __init__(self, roadmap: Roadmap, cost: EnergyCost, options: RoadmapOptions,
-                 bound=None, progress: bool = False) -> None:
+                 bound=None, progress: bool = False, checker=None,
+                 resolution: float | None = None) -> None:
         self.roadmap = roadmap
         self.cost = cost
         self.options = options
         self.progress = bool(progress)
+        self.checker = checker
+        self.resolution = options.resolution if resolution is None else float(resolution)
+        if roadmap.checked is not None:
+            roadmap.checked = np.asarray(roadmap.checked, dtype=bool)  # updated in place
+            if checker is None and not roadmap.checked.all():
+                raise ValueError("a roadmap with unchecked edges needs a collision checker")
         self.bound = bound if bound is not None else EnergyBound(
             cost.drive, arrival_tolerance=options.arrival_tolerance)
         rm = roadmap
         t0 = time.perf_counter()
         Q0 = rm.nodes[rm.src]
-        self._Q1 = _target(cost, Q0, rm.nodes[rm.dst])  # shorter way round (§1d)
+        self._Q1 = edge_target(cost, Q0, rm.nodes[rm.dst])  # shorter way round (§1d)
         self.lower = np.asarray(self.bound(Q0, self._Q1, rm.durations), dtype=float)
         self.bound_seconds = time.perf_counter() - t0
         if self.lower.shape != (rm.num_edges,) or not np.all(np.isfinite(self.lower)
@@ -141,6 +114,33 @@ class LazyEdges:
     def known(self) -> np.ndarray:
         """(E,) bool: evaluated or refused (nothing left to simulate)."""
         return self.roadmap.evaluated | self.refused
+
+    @property
+    def checked(self) -> np.ndarray:
+        """(E,) bool: edges certified collision-free (the roadmap's, updated in place)."""
+        return self.roadmap.checked_mask
+
+    def certify(self, ids: np.ndarray) -> np.ndarray:
+        """Collision-check the unchecked edges among ``ids`` (each undirected pair once, in
+        one batch); both directions of a blocked pair are refused (∞). Returns the ids of
+        the edges newly refused for collision (docs/design.md §4g)."""
+        rm = self.roadmap
+        ids = np.asarray(ids, dtype=np.int64)
+        ids = ids[~self.checked[ids]]
+        if ids.size == 0:
+            return ids
+        t0 = time.perf_counter()
+        lo = np.minimum(rm.src[ids], rm.dst[ids])
+        hi = np.maximum(rm.src[ids], rm.dst[ids])
+        pairs = np.unique(np.stack([lo, hi], axis=1), axis=0)
+        free = certify_pairs(self.checker, rm.nodes, pairs, self.resolution)
+        rm.checked[self.pair_ids(pairs.tolist())] = True
+        blocked = self.pair_ids(pairs[~free].tolist())
+        self.refused[blocked] = True
+        self.count.pairs_checked += int(len(pairs))
+        self.count.collided += int(blocked.size)
+        self.count.check_seconds += time.perf_counter() - t0
+        return blocked
 
     @property
     def edges_evaluated(self) -> int:
@@ -232,6 +232,9 @@ class LazyEdges:
             "reused": self.reused,
             "refused": self.count.refused,
             "simulate_seconds": self.count.simulate_seconds,
+            "pairs_checked": self.count.pairs_checked,
+            "collided": self.count.collided,
+            "check_seconds": self.count.check_seconds,
             "bound_seconds": self.bound_seconds,
             "bound": self.bound.describe() if hasattr(self.bound, "describe") else {},
         }
@@ -311,6 +314,13 @@ class CostView:
                 if todo.size == 0:
                     return path
                 lz.count.rounds += 1
+                # LazySP on collision too: certify the path's unchecked edges first; blocked
+                # ones leave in one update and the planner repairs before any simulation
+                blocked = lz.certify(todo)
+                if blocked.size:
+                    self._push(planner, blocked)
+                    rounds.update(1)
+                    continue
                 rounds.set_postfix_str(f"{lz.count.simulated} edges simulated (+{todo.size})")
                 rescaled = lz.evaluate(todo)
                 rounds.set_postfix_str(f"{lz.count.simulated} edges simulated", refresh=False)

@@ -52,14 +52,16 @@ def add_query(
     options: RoadmapOptions,
     *,
     evaluate: bool,
+    check_edges: bool = True,
     show_progress: bool = False,
 ) -> Roadmap:
     """A copy of ``roadmap`` whose ``start`` and ``goal`` are the configurations ``start``
     and ``goal`` (rad), appended as nodes when they are not nodes already and joined as in
     the module docstring. Existing edges keep their energies (NaN rows stay unevaluated);
     new edges are simulated when ``evaluate`` (the infeasible ones refused and counted in
-    ``edge_counts``), else NaN. ValueError (one line) when start or goal is outside the
-    joint limits or in collision."""
+    ``edge_counts``), else NaN. With ``check_edges=False`` (lazy collision checking, not
+    with ``evaluate``) the new edges are left unchecked. ValueError (one line) when start
+    or goal is outside the joint limits or in collision."""
     arm = cost.drive.arm
     start = _check_endpoint(arm, checker, start, "start")
     goal = _check_endpoint(arm, checker, goal, "goal")
@@ -76,10 +78,14 @@ def add_query(
     src, dst = np.asarray(roadmap.src), np.asarray(roadmap.dst)
     durations, energy = np.asarray(roadmap.durations), np.asarray(roadmap.energy, float)
     counts = {k: int(roadmap.edge_counts.get(k, 0)) for k in EDGE_COUNTS}
+    checked = roadmap.checked
+    pairs_checked = 0
     if nodes.shape[0] > n_old:
         pairs = _neighbour_pairs(nodes, options.k, arm.continuous_mask)
         pairs = pairs[pairs.max(axis=1) >= n_old]  # the pairs among old nodes exist already
-        pairs = _free_pairs(checker, nodes, pairs, options.resolution)
+        pairs_checked = len(pairs) if check_edges else 0
+        if check_edges:
+            pairs = _free_pairs(checker, nodes, pairs, options.resolution)
         if evaluate:
             new = _cost_edges(cost, nodes, pairs, options, _tqdm(show_progress), show_progress)
         else:
@@ -89,10 +95,15 @@ def add_query(
         energy = np.concatenate([energy, np.asarray(new[3], float)])
         for k in EDGE_COUNTS:
             counts[k] += int(new[4].get(k, 0))
+        if not check_edges or checked is not None:
+            old = roadmap.checked_mask
+            checked = np.concatenate([old, np.full(new[0].size, check_edges)])
     digest = hashlib.sha256(roadmap.key.encode())
     digest.update(np.ascontiguousarray(nodes[n_old:], dtype=float).tobytes())
     digest.update(np.array(ids, dtype=np.int64).tobytes())
     timings = {"query_nodes": time.perf_counter() - t0}
     return Roadmap(nodes=nodes, start=ids[0], goal=ids[1], src=src, dst=dst,
                    durations=durations, energy=np.array(energy, dtype=float),
-                   key=digest.hexdigest(), timings=timings, edge_counts=counts)
+                   key=digest.hexdigest(), timings=timings, edge_counts=counts,
+                   checked=None if checked is None else np.asarray(checked, dtype=bool),
+                   pairs_checked=pairs_checked)

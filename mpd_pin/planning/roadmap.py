@@ -11,22 +11,18 @@ replace it without touching the search: cost(u→v) = Σ_joints E⁺ (paper 000,
 for the directed edges that are feasible — timed within the URDF velocity limits,
 within the effort limits, and arriving at their end node (docs/design.md §4e).
 
-Edge duration rule (documented choice):
-
-* ``duration_rule="fixed"`` — every edge takes ``duration`` seconds;
-* ``duration_rule="distance"`` — ``T = clip(⌈max_k |Δq_k| / ω / quantum⌉·quantum,
-  T_min, T_max)``: the largest joint move at mean speed ``ω`` rad/s, rounded up
-  to a multiple of ``quantum`` seconds (itself a multiple of dt), so edges fall
-  into few batches;
-
-either raised to the velocity-limit bound when ``velocity_limits`` is set.
+This module is the roadmap as data (:class:`Roadmap`, its ``.npz`` files) and its
+construction (:func:`build_roadmap`). The options and the edge duration rule are in
+:mod:`mpd_pin.planning.options`; certifying and simulating edges, eagerly here or as a
+lazy search asks (:mod:`mpd_pin.planning.lazy`), in :mod:`mpd_pin.planning.evaluate`.
+With lazy collision checking (``check_edges=False``) the edge checks are left to the
+search too (docs/design.md §4g).
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
 import shutil
 from dataclasses import asdict, dataclass, field, replace
@@ -36,119 +32,23 @@ import numpy as np
 
 from ..arm.continuous import nearest_neighbours
 from ..dynamics.cost import EnergyCost
-from ..dynamics.simulate import step_count
 from ..search import Graph
+from .evaluate import certify_pairs, complete_checks, complete_roadmap, feasibility
+from .options import RoadmapOptions
 from .resume import PartialCosts, atomic_savez, partial_dir
 
-__all__ = ["RoadmapOptions", "Roadmap", "build_roadmap", "ROADMAP_FORMAT"]
+__all__ = ["RoadmapOptions", "Roadmap", "build_roadmap", "ROADMAP_FORMAT", "COLLISIONS",
+           "feasibility"]
+
+#: Values of ``[roadmap] collision`` (docs/design.md §4g): edges certified when the search
+#: needs them (lazy, the default) or all before it (eager).
+COLLISIONS = ("lazy", "eager")
 
 #: Keys of :attr:`Roadmap.edge_counts`, in the order of the file's ``edge_counts`` array.
 EDGE_COUNTS = ("lengthened_for_velocity", "refused_effort", "refused_arrival")
 
 #: Version of the .npz layout and of the cost model; part of every file's key.
 ROADMAP_FORMAT = "mpd_pin.roadmap/2"  # 2: feasible edges only, edge_counts array
-
-
-@dataclass(frozen=True)
-class RoadmapOptions:
-    """How a roadmap is sampled, connected and costed.
-
-    num_nodes: random free samples (start and goal come on top).
-    k: nearest neighbours per node (joint-space Euclidean).
-    seed: seed of the numpy Generator that draws the samples.
-    resolution: joint-space step (rad) of the edge collision check.
-    duration_rule: "fixed" or "distance" (see module docstring).
-    duration: edge duration (s) for the fixed rule.
-    joint_speed: mean joint speed ω (rad/s) for the distance rule.
-    duration_quantum, min_duration, max_duration: distance rule rounding and bounds (s).
-    dt: RK4 step (s).
-    max_attempts: give up sampling after this many draws per requested node.
-    velocity_limits: time every edge so that its quintic reference stays within the URDF
-        velocity limits, T ≥ 1.875·|Δq_k|/v_lim,k, rounded up to ``duration_quantum``
-        (an edge only ever gets longer than its rule says; joints without a positive
-        finite limit are not constrained).
-    effort_limits: refuse an edge whose simulated motor torque n·Kt·|i| exceeds a URDF
-        effort limit (N·m) at any step.
-    arrival_tolerance: refuse an edge whose simulated motion ends farther than this (rad)
-        from its end node in any joint: the energy of a motion that does not arrive is
-        not that edge's energy (docs/design.md §3g, §4e).
-    """
-
-    num_nodes: int = 200
-    k: int = 10
-    seed: int = 0
-    resolution: float = 0.05
-    duration_rule: str = "fixed"
-    duration: float = 1.0
-    joint_speed: float = 1.0
-    duration_quantum: float = 0.25
-    min_duration: float = 0.5
-    max_duration: float = 4.0
-    dt: float = 5e-3
-    max_attempts: int = 200
-    velocity_limits: bool = True
-    effort_limits: bool = True
-    arrival_tolerance: float = 0.01
-
-    def __post_init__(self) -> None:
-        if int(self.num_nodes) != self.num_nodes or self.num_nodes < 0:
-            raise ValueError(f"num_nodes must be a non-negative integer, got {self.num_nodes!r}")
-        if int(self.k) != self.k or self.k < 1:
-            raise ValueError(f"k must be a positive integer, got {self.k!r}")
-        if self.duration_rule not in ("fixed", "distance"):
-            raise ValueError(
-                f"duration_rule must be 'fixed' or 'distance', got {self.duration_rule!r}"
-            )
-        for name in (
-            "resolution",
-            "duration",
-            "joint_speed",
-            "duration_quantum",
-            "min_duration",
-            "max_duration",
-            "dt",
-            "arrival_tolerance",
-        ):
-            val = getattr(self, name)
-            if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
-                raise ValueError(f"{name} must be a finite number > 0, got {val!r}")
-        if self.min_duration > self.max_duration:
-            raise ValueError("min_duration must not exceed max_duration")
-        step_count(self.duration, self.dt)
-        step_count(self.duration_quantum, self.dt)
-        step_count(self.min_duration, self.dt)
-        step_count(self.max_duration, self.dt)
-
-    def durations(
-        self, Q0: np.ndarray, Q1: np.ndarray, velocity_limit: np.ndarray | None = None
-    ) -> np.ndarray:
-        """Edge durations (s) by the chosen rule, one per row of Q0/Q1, lengthened where
-        ``velocity_limits`` and the joint ``velocity_limit`` (rad/s) require it."""
-        return self.timing(Q0, Q1, velocity_limit)[0]
-
-    def timing(
-        self, Q0: np.ndarray, Q1: np.ndarray, velocity_limit: np.ndarray | None = None
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """``(durations (s), lengthened)``: the rule's durations, raised to the quintic's
-        velocity bound 1.875·max_k |Δq_k|/v_lim,k rounded up to ``duration_quantum``;
-        ``lengthened`` marks the edges the bound raised."""
-        K = Q0.shape[0]
-        if self.duration_rule == "fixed":
-            T = np.full(K, float(self.duration))
-        else:
-            dist = np.max(np.abs(Q1 - Q0), axis=1) if K else np.zeros(0)
-            steps = np.ceil(dist / self.joint_speed / self.duration_quantum - 1e-12)
-            T = np.clip(steps * self.duration_quantum, self.min_duration, self.max_duration)
-        raised = np.zeros(K, dtype=bool)
-        if self.velocity_limits and velocity_limit is not None and K:
-            vl = np.asarray(velocity_limit, dtype=float)
-            vl = np.where(np.isfinite(vl) & (vl > 0), vl, np.inf)
-            need = np.max(1.875 * np.abs(Q1 - Q0) / vl, axis=1)
-            need = np.ceil(need / self.duration_quantum - 1e-9) * self.duration_quantum
-            raised = need > T + 1e-12
-            T = np.maximum(T, need)
-        # Snap to the dt grid exactly so T/dt is whole.
-        return np.round(T / self.dt) * self.dt, raised
 
 
 @dataclass
@@ -177,6 +77,19 @@ class Roadmap:
     edge_counts: dict = field(default_factory=dict)
     #: chunks of edge energies taken from an interrupted build's partial file (§4h)
     chunks_reused: int = 0
+    #: (E,) bool: edges certified collision-free; None: every edge (an eager check).
+    #: Lazy collision checking (docs/design.md §4g) leaves edges unchecked until the
+    #: search needs them.
+    checked: np.ndarray | None = None
+    #: undirected node pairs collision-checked while building (not saved in files)
+    pairs_checked: int = 0
+
+    @property
+    def checked_mask(self) -> np.ndarray:
+        """(E,) bool: edges certified collision-free (all of them after an eager check)."""
+        if self.checked is None:
+            return np.ones(self.num_edges, dtype=bool)
+        return np.asarray(self.checked, dtype=bool)
 
     @property
     def num_nodes(self) -> int:
@@ -225,6 +138,7 @@ class Roadmap:
             self, src=self.src[keep], dst=self.dst[keep], durations=self.durations[keep],
             energy=np.array(self.energy[keep], dtype=float), edge_counts=dict(self.edge_counts),
             timings=dict(self.timings),
+            checked=None if self.checked is None else np.asarray(self.checked, bool)[keep],
         )
 
     # ------------------------------------------------------------------ files
@@ -258,7 +172,7 @@ class Roadmap:
             "durations": np.asarray(self.durations, float),
             "energy": np.asarray(self.energy, float),
             "edge_counts": np.array([self.edge_counts.get(k, 0) for k in EDGE_COUNTS], np.int64),
-        }
+        } | ({} if self.checked is None else {"checked": self.checked_mask})
 
     @staticmethod
     def _checksum(key: str, arrays: dict[str, np.ndarray]) -> str:
@@ -333,7 +247,9 @@ class Roadmap:
         key = str(data["key"])
         arrays = {
             n: data[n]
-            for n in ("nodes", "endpoints", "src", "dst", "durations", "energy", "edge_counts")
+            for n in ("nodes", "endpoints", "src", "dst", "durations", "energy", "edge_counts",
+                      "checked")
+            if n in data  # "checked": only in files of lazily checked roadmaps
         }
         if cls._checksum(key, arrays) != str(data["checksum"]):
             raise ValueError(
@@ -355,6 +271,7 @@ class Roadmap:
             energy=arrays["energy"],
             key=key,
             edge_counts=dict(zip(EDGE_COUNTS, arrays["edge_counts"].tolist(), strict=True)),
+            checked=arrays.get("checked"),
         )
 
 
@@ -406,6 +323,9 @@ def _validate_arrays(arrays: dict[str, np.ndarray], path: Path, nq: int | None) 
     counts = arrays["edge_counts"]
     if counts.dtype.kind not in "iu" or counts.shape != (len(EDGE_COUNTS),) or np.any(counts < 0):
         raise bad(f"edge_counts must be {len(EDGE_COUNTS)} non-negative integers")
+    checked = arrays.get("checked")
+    if checked is not None and (checked.dtype != bool or checked.shape != (E,)):
+        raise bad("checked must be one bool per edge")
 
 
 # --------------------------------------------------------------------------- building
@@ -521,31 +441,13 @@ def _free_pairs(checker, nodes: np.ndarray, pairs: np.ndarray, resolution: float
     chunks (``edges_free(..., progress=)``; the same answers as one batch)."""
     if not len(pairs):
         return pairs[np.zeros(0, bool)]
-    Q0 = nodes[pairs[:, 0]]
-    Q1 = checker.arm.edge_target(Q0, nodes[pairs[:, 1]])
     if not show_progress:
-        free = checker.edges_free(Q0, Q1, resolution)
-    else:
-        with (tqdm or _tqdm(True))(total=len(pairs), desc="edge checks", unit="edge",
-                                   leave=False) as bar:
-            free = checker.edges_free(Q0, Q1, resolution,
-                                      progress=lambda d: bar.update(d - bar.n))
-    return pairs[np.asarray(free, dtype=bool)]
-
-
-def feasibility(out, options: RoadmapOptions, model) -> tuple[np.ndarray, np.ndarray]:
-    """Rules (b), (c) of docs/design.md §4e on ``EdgeOutcomes`` of K edges: ``(over,
-    missed)``, (K,) bool — effort limit exceeded, end farther than ``arrival_tolerance``."""
-    K = np.asarray(out.energy).shape[0]
-    over = np.zeros(K, dtype=bool)
-    if options.effort_limits and K:
-        lim = np.asarray(model.effortLimit, dtype=float)
-        lim = np.where(np.isfinite(lim) & (lim > 0), lim, np.inf)
-        over = np.any(out.peak_torque > lim * (1.0 + 1e-12), axis=1)
-    missed = np.zeros(K, dtype=bool)
-    if K:
-        missed = np.max(np.abs(out.end_error), axis=1) > options.arrival_tolerance
-    return over, missed
+        return pairs[certify_pairs(checker, nodes, pairs, resolution)]
+    with (tqdm or _tqdm(True))(total=len(pairs), desc="edge checks", unit="edge",
+                               leave=False) as bar:
+        free = certify_pairs(checker, nodes, pairs, resolution,
+                             progress=lambda d: bar.update(d - bar.n))
+    return pairs[free]
 
 
 def _candidate_edges(nodes, pairs, options: RoadmapOptions, arm):
@@ -598,26 +500,6 @@ def _cost_edges(
     return src[keep], dst[keep], durations[keep], np.asarray(out.energy, float)[keep], counts
 
 
-def _complete(cost: EnergyCost, roadmap: Roadmap, options: RoadmapOptions, tqdm,
-              show_progress: bool) -> Roadmap:
-    """Evaluate the NaN edges of a loaded (lazy) roadmap, dropping the refused ones."""
-    import time
-
-    from .lazy import evaluate_edges  # the lazy module builds on this one
-
-    t0 = time.perf_counter()
-    todo = np.flatnonzero(~roadmap.evaluated)
-    with tqdm(total=todo.size, desc="edge energies", unit="edge", disable=not show_progress,
-              leave=False) as bar:
-        refused = evaluate_edges(cost, roadmap, todo, options,
-                                 progress=lambda d: bar.update(d - bar.n))
-    drop = np.zeros(roadmap.num_edges, dtype=bool)
-    drop[todo[refused]] = True
-    done = roadmap.without_edges(drop)
-    done.timings["edge_energies"] = time.perf_counter() - t0
-    return done
-
-
 def build_roadmap(
     cost: EnergyCost,
     checker,
@@ -629,6 +511,7 @@ def build_roadmap(
     cache: str | os.PathLike | None = None,
     show_progress: bool = True,
     evaluate: bool = True,
+    check_edges: bool = True,
 ) -> Roadmap:
     """Sample, connect, check and cost a roadmap; start is node 0, goal node 1.
 
@@ -636,6 +519,10 @@ def build_roadmap(
     kept, timed, with NaN energies, for lazy evaluation (docs/design.md §4g); such a
     roadmap has the same key as the evaluated one. With ``evaluate=True`` a cached file
     holding unevaluated edges has them simulated (refused ones dropped) and is saved again.
+    ``check_edges=False`` (lazy collision checking, only with ``evaluate=False``) also
+    skips the edge checks: every neighbour pair enters, ``checked`` all False; with
+    ``check_edges=True`` a cached file's unchecked edges are certified (blocked ones
+    dropped) first.
 
     ``checker`` is a validity checker (``arm``, ``is_free``, ``is_free_batch``,
     ``edges_free`` — with a ``progress=`` callback when ``show_progress`` —,
@@ -651,6 +538,9 @@ def build_roadmap(
     """
     import time
 
+    if evaluate and not check_edges:
+        raise ValueError("evaluate=True needs check_edges=True: only collision-free edges are "
+                         "simulated")
     tqdm = _tqdm(show_progress)
     options = options or RoadmapOptions()
     arm = cost.drive.arm
@@ -663,8 +553,13 @@ def build_roadmap(
         if cache.exists():
             loaded = Roadmap.load(cache, expected_key=key, nq=arm.nq)
             shutil.rmtree(partial_dir(cache), ignore_errors=True)  # a leftover of this build
+            finish = check_edges and not loaded.checked_mask.all()
+            if finish:
+                loaded = complete_checks(loaded, checker, options.resolution, show_progress)
             if evaluate and not loaded.evaluated.all():
-                loaded = _complete(cost, loaded, options, tqdm, show_progress)
+                loaded = complete_roadmap(cost, loaded, options, show_progress)
+                finish = True
+            if finish:
                 loaded.save(cache)
             return loaded
 
@@ -675,9 +570,11 @@ def build_roadmap(
     t0 = time.perf_counter()
     pairs = _neighbour_pairs(nodes, options.k, arm.continuous_mask)
     timings["neighbours"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    pairs = _free_pairs(checker, nodes, pairs, options.resolution, tqdm, show_progress)
-    timings["edge_checks"] = time.perf_counter() - t0
+    checked_pairs = len(pairs) if check_edges else 0
+    if check_edges:
+        t0 = time.perf_counter()
+        pairs = _free_pairs(checker, nodes, pairs, options.resolution, tqdm, show_progress)
+        timings["edge_checks"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     if evaluate:
         src, dst, durations, energy, counts = _cost_edges(
@@ -702,6 +599,8 @@ def build_roadmap(
         timings=timings,
         edge_counts=counts,
         chunks_reused=reused,
+        checked=None if check_edges else np.zeros(src.size, dtype=bool),
+        pairs_checked=checked_pairs,
     )
     if cache is not None:
         roadmap.save(cache)

@@ -1,4 +1,5 @@
-"""Run every built-in scenario with the mpd-pin command and print the README results tables.
+"""Run every built-in scenario with the mpd-pin command and print the results tables of
+docs/guide.md ("Results of the built-in scenarios").
 
 Usage: python scripts/results_table.py [--out out/] [names...]
 

@@ -3,13 +3,15 @@
 * docs/design.md has strictly formatted section headings (``## §N Title``,
   ``### §Na Title``), numbered in order;
 * every "docs/design.md §X" citation in the package, tests, bench, scripts,
-  notebooks and README names a section that exists (ranges ``§1–2``, ``§3-§4``
-  resolve every section in between), and so does every bare "§X" cross-reference
-  inside the notes themselves;
+  notebooks, README and user guide (docs/guide.md) names a section that exists
+  (ranges ``§1–2``, ``§3-§4`` resolve every section in between), and so does every
+  bare "§X" cross-reference inside the notes themselves;
 * docs/README.md lists exactly the sections of docs/design.md, with their titles
   (so no section is an orphan: each is cited or at least indexed);
-* the README's "Layout" block names every folder and module of ``mpd_pin/`` and
-  nothing that does not exist.
+* the user guide's "Layout" block names every folder and module of ``mpd_pin/`` and
+  nothing that does not exist;
+* every relative link of README.md, docs/guide.md and docs/README.md leads to a file of
+  the repository, and every ``#anchor`` to a heading of its target.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DESIGN = ROOT / "docs" / "design.md"
 INDEX = ROOT / "docs" / "README.md"
 README = ROOT / "README.md"
+GUIDE = ROOT / "docs" / "guide.md"
 
 #: Where citations are looked for, and in which files.
 CITING_DIRS = ("mpd_pin", "tests", "bench", "scripts", "notebooks")
@@ -85,7 +88,7 @@ def _expand(a: str, b: str | None, where: str) -> list[str]:
 
 
 def _citing_files() -> list[Path]:
-    files = [README]
+    files = [README, GUIDE]
     for d in CITING_DIRS:
         files += [
             p
@@ -112,7 +115,7 @@ def citations() -> list[tuple[str, str]]:
 def test_design_notes_exist_with_all_top_level_sections():
     sections = design_sections()
     top = [k for k in sections if k.isdigit()]
-    assert top == [str(n) for n in range(1, 10)], top
+    assert top == [str(n) for n in range(1, 11)], top
 
 
 def test_every_citation_resolves_to_a_heading():
@@ -158,13 +161,13 @@ def test_every_section_is_cited_or_indexed():
     assert not orphans, orphans
 
 
-# ------------------------------------------------------------------ README layout
+# ------------------------------------------------------------------ the guide's layout
 def _layout_block() -> list[str]:
-    text = README.read_text(encoding="utf-8")
+    text = GUIDE.read_text(encoding="utf-8")
     m = re.search(r"^## Layout\n(?P<body>.*?)(?=^## |\Z)", text, re.M | re.S)
-    assert m, "README.md has no '## Layout' section"
+    assert m, "docs/guide.md has no '## Layout' section"
     block = re.search(r"^```\n(?P<code>.*?)^```$", m["body"], re.M | re.S)
-    assert block, "README.md's Layout section has no code block"
+    assert block, "docs/guide.md's Layout section has no code block"
     return block["code"].splitlines()
 
 
@@ -190,12 +193,12 @@ def _layout_entries() -> dict[str, set[str]]:
     return {k: set(re.findall(r"\b(\w+)\.py\b", " ".join(v))) for k, v in entries.items()}
 
 
-def test_readme_layout_matches_the_package_tree():
+def test_guide_layout_matches_the_package_tree():
     pkg = ROOT / "mpd_pin"
     entries = _layout_entries()
     folders = {p.name for p in pkg.iterdir() if p.is_dir() and not p.name.startswith(("_", "."))}
     assert set(entries) - {""} == folders, (
-        f"README layout folders {sorted(set(entries) - {''})} != mpd_pin/ folders {sorted(folders)}"
+        f"guide layout folders {sorted(set(entries) - {''})} != mpd_pin/ folders {sorted(folders)}"
     )
     for folder, listed in sorted(entries.items()):
         here = pkg / folder
@@ -203,18 +206,48 @@ def test_readme_layout_matches_the_package_tree():
         if folder:  # a stage folder's __init__.py goes without saying
             actual.discard("__init__")
         assert listed == actual, (
-            f"README layout of mpd_pin/{folder}: lists {sorted(listed)}, the tree has "
+            f"guide layout of mpd_pin/{folder}: lists {sorted(listed)}, the tree has "
             f"{sorted(actual)}"
         )
 
 
-def test_readme_points_to_the_design_notes():
+def test_readme_points_to_the_design_notes_and_the_guide():
     text = README.read_text(encoding="utf-8")
-    assert "docs/design.md" in text
+    assert "docs/design.md" in text and "docs/guide.md" in text
     assert "DESIGN.md" not in text, "the README must not send readers outside the repository"
+    assert "guide.md" in INDEX.read_text(encoding="utf-8"), "docs/README.md omits the guide"
 
 
-@pytest.mark.parametrize("path", [DESIGN, INDEX])
+# ------------------------------------------------------------------ links
+LINK_RE = re.compile(r"!?\[[^\]]*\]\((?P<target>[^)\s]+)\)")
+
+
+def _anchors(path: Path) -> set[str]:
+    """GitHub's anchors of the headings of a Markdown file: lower case, punctuation other
+    than hyphens dropped, spaces to hyphens."""
+    text = re.sub(r"^```.*?^```$", "", path.read_text(encoding="utf-8"), flags=re.M | re.S)
+    headings = re.findall(r"^#{1,6} (.+?)\s*$", text, re.M)
+    return {re.sub(r"[^\w\- ]", "", h.lower()).replace(" ", "-") for h in headings}
+
+
+@pytest.mark.parametrize("path", [README, GUIDE, INDEX], ids=lambda p: str(p.relative_to(ROOT)))
+def test_relative_links_resolve(path):
+    text = re.sub(r"^```.*?^```$", "", path.read_text(encoding="utf-8"), flags=re.M | re.S)
+    broken = []
+    for m in LINK_RE.finditer(text):
+        target = m["target"]
+        if re.match(r"^[a-z]+:", target):  # http(s), mailto: not checked here
+            continue
+        file, _, anchor = target.partition("#")
+        dest = (path.parent / file).resolve() if file else path
+        if not dest.exists():
+            broken.append(f"{target}: no file {dest}")
+        elif anchor and anchor not in _anchors(dest):
+            broken.append(f"{target}: no heading with anchor #{anchor} in {dest.name}")
+    assert not broken, f"{path.name}:\n" + "\n".join(broken)
+
+
+@pytest.mark.parametrize("path", [DESIGN, INDEX, GUIDE])
 def test_docs_have_no_overlong_lines_outside_tables_and_code(path):
     in_code = False
     for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):

@@ -311,3 +311,17 @@ def _plain(obj):
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     return obj
+
+
+def test_scenario_duration_comments_say_edges_are_lengthened():
+    """Every built-in scenario that sets ``[roadmap] duration`` says on that line that
+    edges are lengthened where the joint velocity limits need it (issue 23 item 6)."""
+    from mpd_pin.app.scenario_files import builtin_scenarios
+
+    seen = 0
+    for name, path in builtin_scenarios().items():
+        for line in path.read_text(encoding="utf-8").splitlines():
+            if line.startswith("duration ="):
+                seen += 1
+                assert "lengthened" in line and "velocity limits" in line, (name, line)
+    assert seen >= 8

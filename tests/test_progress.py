@@ -127,14 +127,21 @@ def test_lazy_plan_shows_edge_checks_and_rounds(small_quickstart, capfd):
     assert quiet.err == ""
     assert setup.lazy.count.rounds >= 2  # a loop worth showing
 
-    setup = prepare(scn, show_progress=True)
+    eager_checks = dataclasses.replace(scn, collision="eager")
+    setup = prepare(eager_checks, show_progress=True)
     built = capfd.readouterr().err
     assert "edge checks" in built and f"/{_pairs(setup)}" in built
     assert setup.lazy.progress  # prepare(show_progress=True) passes it to LazyEdges
-    plan_path(scn, setup)
+    plan_path(eager_checks, setup)
     err = capfd.readouterr().err
     assert "lazy search (energy)" in err and "rounds" in err
     assert "edges simulated" in err
+
+    setup = prepare(scn, show_progress=True)  # lazy collision checks: in the rounds
+    assert "edge checks" not in capfd.readouterr().err
+    plan_path(scn, setup)
+    err = capfd.readouterr().err
+    assert f"{2 * setup.lazy.count.pairs_checked} edge checks" in err
 
 
 def _pairs(setup) -> int:
@@ -191,6 +198,6 @@ def test_cli_run_shows_every_long_phase_and_quiet_silences_them(tmp_path, capfd)
     assert capfd.readouterr().err == ""
     assert main([*args, str(tmp_path / "b")]) == 0
     err = capfd.readouterr().err
-    for phase in ("edge checks", "lazy search (energy)", "verification", "refinement",
+    for phase in ("edge checks, ", "lazy search (energy)", "verification", "refinement",
                   "mpd-pin: plots done", "mpd-pin: replay done"):
         assert phase in err, phase

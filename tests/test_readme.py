@@ -1,8 +1,11 @@
-"""The README's Python examples run as written, from any directory, on the installed package.
+"""The README's and the user guide's examples run as written, from any directory, on the
+installed package.
 
-Each ```python block of README.md is executed in a fresh interpreter whose working
-directory is an empty temporary folder (so a relative path such as ``robots/...``
-would fail) and whose ``sys.path`` does not start with the repository.
+Each ```python block of README.md and docs/guide.md is executed in a fresh interpreter
+whose working directory is an empty temporary folder (so a relative path such as
+``robots/...`` would fail) and whose ``sys.path`` does not start with the repository; their
+``mpd-pin`` commands run one after the other. The guide's result.json tables name every
+field of the schema; the README stays short and lists every notebook.
 """
 
 from __future__ import annotations
@@ -17,17 +20,27 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
-
-BLOCKS = re.findall(r"^```python\n(.*?)^```$", README.read_text(encoding="utf-8"), re.M | re.S)
-
-
-def test_readme_has_python_examples():
-    assert BLOCKS, "README.md has no ```python block"
+GUIDE = ROOT / "docs" / "guide.md"
+#: The documents whose examples run, in reading order.
+DOCUMENTS = (README, GUIDE)
 
 
-@pytest.mark.parametrize("index", range(len(BLOCKS)))
-def test_readme_python_block_runs_in_an_empty_directory(index, tmp_path):
-    code = BLOCKS[index]
+def _blocks(path: Path, language: str) -> list[str]:
+    return re.findall(rf"^```{language}\n(.*?)^```$", path.read_text(encoding="utf-8"),
+                      re.M | re.S)
+
+
+BLOCKS = [(path.name, k, code) for path in DOCUMENTS
+          for k, code in enumerate(_blocks(path, "python"))]
+
+
+@pytest.mark.parametrize("path", DOCUMENTS, ids=lambda p: p.name)
+def test_documents_have_python_examples(path):
+    assert _blocks(path, "python"), f"{path.name} has no ```python block"
+
+
+@pytest.mark.parametrize("name, index, code", BLOCKS, ids=[f"{n}-{k}" for n, k, _ in BLOCKS])
+def test_python_block_runs_in_an_empty_directory(name, index, code, tmp_path):
     env = dict(os.environ, MPLBACKEND="Agg")
     env.pop("PYTHONPATH", None)
     # -P (3.11+): do not put the script's directory (here: the cwd) first on sys.path.
@@ -39,18 +52,19 @@ def test_readme_python_block_runs_in_an_empty_directory(index, tmp_path):
         text=True,
         timeout=300,
     )
-    assert proc.returncode == 0, f"README block {index} failed:\n{code}\n{proc.stderr[-3000:]}"
-    assert proc.stdout.strip(), f"README block {index} printed nothing"
-    assert not list(tmp_path.iterdir()), "README example left files in the working directory"
+    assert proc.returncode == 0, f"{name} block {index} failed:\n{code}\n{proc.stderr[-3000:]}"
+    assert proc.stdout.strip(), f"{name} block {index} printed nothing"
+    assert not list(tmp_path.iterdir()), f"{name} example left files in the working directory"
 
 
 # ------------------------------------------------------------------ the shell commands
-BASH = re.findall(r"^```bash\n(.*?)^```$", README.read_text(encoding="utf-8"), re.M | re.S)
+BASH = [block for path in DOCUMENTS for block in _blocks(path, "bash")]
 
 
 def _mpd_pin_commands() -> list[str]:
-    """The ``mpd-pin …`` commands of README's ```bash blocks, in order, as written (a
-    ``pip install … && mpd-pin …`` line gives its second half; comments dropped)."""
+    """The ``mpd-pin …`` commands of the ```bash blocks of README.md, then docs/guide.md, in
+    order, as written (a ``pip install … && mpd-pin …`` line gives its second half;
+    comments dropped)."""
     commands = []
     for block in BASH:
         for line in block.splitlines():
@@ -60,11 +74,11 @@ def _mpd_pin_commands() -> list[str]:
     return commands
 
 
-def test_readme_shell_commands_run_as_written(tmp_path):
-    """Every ``mpd-pin`` command of the README runs, one after the other, in an empty
-    folder (``mpd-pin show … > my_scene.toml`` feeds the next one); the first prints the
-    line the README shows; every result.json written is checked against the schema
-    (tests/conftest.py)."""
+def test_shell_commands_run_as_written(tmp_path):
+    """Every ``mpd-pin`` command of the README and the guide runs, one after the other, in
+    an empty folder (``mpd-pin show … > my_scene.toml`` feeds the next one); the first
+    prints the line the README (and the guide) shows; every result.json written is checked
+    against the schema (tests/conftest.py)."""
     import json
 
     commands = _mpd_pin_commands()
@@ -78,9 +92,10 @@ def test_readme_shell_commands_run_as_written(tmp_path):
                               capture_output=True, text=True, timeout=600)
         assert proc.returncode == 0, f"{command}:\n{proc.stderr[-3000:]}"
         outputs.append(proc.stdout)
-    shown = re.search(r"prints\n\n```text\n(.*?)\n```", README.read_text(encoding="utf-8"), re.S)
-    assert shown, "README shows no output of the first command"
-    assert outputs[0].strip() == shown.group(1).strip()
+    for path in DOCUMENTS:
+        shown = re.search(r"prints\n\n```text\n(.*?)\n```", path.read_text(encoding="utf-8"), re.S)
+        assert shown, f"{path.name} shows no output of the first command"
+        assert outputs[0].strip() == shown.group(1).strip(), path.name
     first = json.loads((tmp_path / "out" / "result.json").read_text())
     assert first["warnings"] == [] and 1.0 < first["total_energy"] < 1000.0  # plausible J
     paper = json.loads((tmp_path / "out" / "case1" / "result.json").read_text())
@@ -90,8 +105,8 @@ def test_readme_shell_commands_run_as_written(tmp_path):
 
 # ------------------------------------------------------------------ result.json tables
 def _table_fields(heading_text: str) -> set[str]:
-    """Backticked names in the first column of the table following ``heading_text``."""
-    text = README.read_text(encoding="utf-8")
+    """Backticked names in the first column of the guide's table following ``heading_text``."""
+    text = GUIDE.read_text(encoding="utf-8")
     start = text.index(heading_text)
     rows = re.search(r"\n(\|.*?\n)(?!\|)", text[start:], re.S).group(1)
     names = set()
@@ -104,8 +119,25 @@ def _table_fields(heading_text: str) -> set[str]:
     ("energy", 'An energy scenario (`kind = "energy"`, paper 000):'),
     ("dynamic2link", "files, but the PNG figures listed in `plots`, and:"),
 ])
-def test_readme_tables_name_every_result_field(kind, heading):
+def test_guide_tables_name_every_result_field(kind, heading):
     from mpd_pin.app.results import result_schema
 
     fields = set(result_schema()["$defs"][kind]["properties"])
     assert _table_fields(heading) == fields
+
+
+# ------------------------------------------------------------------ a short README
+def test_readme_stays_short():
+    """The README is the overview; details belong in docs/guide.md (issue 23)."""
+    lines = README.read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= 200, f"README.md has {len(lines)} lines: move details to docs/guide.md"
+
+
+def test_readme_lists_every_notebook():
+    text = README.read_text(encoding="utf-8")
+    section = re.search(r"^## Notebooks\n(.*?)(?=^## |\Z)", text, re.M | re.S)
+    assert section, "README.md has no '## Notebooks' section"
+    listed = set(re.findall(r"^- \*\*(\w+)\*\* \S", section.group(1), re.M))
+    expected = {p.stem.split("_")[0] if p.stem[:2].isdigit() else p.stem
+                for p in (ROOT / "notebooks").glob("*.ipynb")}
+    assert listed == expected, f"README notebooks {sorted(listed)} != {sorted(expected)}"

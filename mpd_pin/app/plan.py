@@ -377,10 +377,12 @@ def _plan_lazy(scn: EnergyScenario, setup: Setup, kind: str) -> PlanResult:
                 resolution=scn.options.resolution, planner=planner, view=view,
             )
             return _executed(run, hazard, other_paths)
-        p = planner(view.graph(), roadmap.start, roadmap.goal)
+        # focused by the bound-distance heuristic (docs/design.md §5d)
+        p = view.planner(planner, roadmap.start, roadmap.goal)
         ts = time.perf_counter()
         plan = view.settle(p)
-        return _searched(roadmap, p, plan, time.perf_counter() - ts, hazard, other_paths)
+        return _searched(roadmap, view.planner_used, plan, time.perf_counter() - ts, hazard,
+                         other_paths)
     finally:
         if setup.cache is not None:
             lazy.save(setup.cache)

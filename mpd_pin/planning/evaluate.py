@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..dynamics.simulate import edge_outcomes
-from ..progress import bar
+from ..progress import bar, tqdm_class
 
 if TYPE_CHECKING:  # types only: roadmap.py imports this module
     from .roadmap import Roadmap, RoadmapOptions
@@ -96,6 +96,14 @@ def evaluate_edges(
                             progress=progress)
     else:  # the executor seam; the shorter way round is taken inside outcomes (§1d)
         out = cost.outcomes(Q0, Q1, T, progress=progress)
+    return _enter(roadmap, ids, out, options, model)
+
+
+def _enter(roadmap: Roadmap, ids: np.ndarray, out, options: RoadmapOptions,
+           model) -> np.ndarray:
+    """Write the feasible ones of the simulated edges ``ids`` (``out``: their
+    ``EdgeOutcomes``) into ``roadmap.energy`` and count the refused ones; returns the
+    refused mask."""
     over, missed = feasibility(out, options, model)
     refused = over | missed
     energy = np.asarray(out.energy, float)
@@ -131,15 +139,34 @@ def complete_checks(roadmap: Roadmap, checker, resolution: float,
 
 
 def complete_roadmap(cost, roadmap: Roadmap, options: RoadmapOptions,
-                     show_progress: bool) -> Roadmap:
-    """Evaluate the NaN edges of a loaded (lazy) roadmap, dropping the refused ones."""
+                     show_progress: bool, *, resume=None, tqdm=None) -> Roadmap:
+    """Evaluate the NaN edges of a loaded (lazy) roadmap, dropping the refused ones. With
+    ``resume`` = (cache file, key), finished chunks are kept in ``<cache>.partial/`` as an
+    eager build keeps them, and those of an interrupted completion are reused
+    (:attr:`Roadmap.chunks_reused`; docs/design.md §4h). ``tqdm``: the bar class."""
+    from .resume import PartialCosts
+
     t0 = time.perf_counter()
     todo = np.flatnonzero(~roadmap.evaluated)
-    with bar(todo.size, "edge energies", unit="edge", enabled=show_progress) as b:
-        refused = evaluate_edges(cost, roadmap, todo, options,
-                                 progress=lambda d: b.update(d - b.n))
+    reused = 0
+    bar_class = tqdm or tqdm_class(show_progress)
+    with bar_class(total=todo.size, desc="edge energies", unit="edge", leave=False,
+                   disable=not show_progress) as b:
+        progress = lambda d: b.update(d - b.n)  # noqa: E731
+        if resume is None or todo.size == 0:
+            refused = evaluate_edges(cost, roadmap, todo, options, progress=progress)
+        else:
+            nodes = roadmap.nodes
+            Q0, Q1 = nodes[roadmap.src[todo]], nodes[roadmap.dst[todo]]
+            T = roadmap.durations[todo]
+            partial = PartialCosts(resume[0], resume[1], Q0, edge_target(cost, Q0, Q1), T)
+            out = cost.outcomes(Q0, Q1, T, progress=progress, reuse=partial.load(),
+                                on_chunk=partial.add)
+            refused = _enter(roadmap, todo, out, options, cost.drive.arm.model)
+            reused = partial.chunks_reused
     drop = np.zeros(roadmap.num_edges, dtype=bool)
     drop[todo[refused]] = True
     done = roadmap.without_edges(drop)
     done.timings["edge_energies"] = time.perf_counter() - t0
+    done.chunks_reused = reused
     return done

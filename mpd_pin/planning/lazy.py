@@ -36,11 +36,41 @@ from ..search import Graph, Path, Planner
 from .evaluate import SMALL_BATCH, certify_pairs, edge_target, evaluate_edges
 from .roadmap import Roadmap, RoadmapOptions
 
-__all__ = ["LazyEdges", "CostView", "SAFETY", "SMALL_BATCH", "evaluate_edges", "lazy_plan"]
+__all__ = ["LazyEdges", "CostView", "LandmarkHeuristic", "SAFETY", "SMALL_BATCH",
+           "evaluate_edges", "lazy_plan"]
 
 #: After a bound violation, unevaluated bounds are scaled to this fraction of the smallest
 #: true/bound ratio observed (docs/design.md §4g).
 SAFETY = 0.9
+
+
+class LandmarkHeuristic:
+    """h(a, b) = max(0, D[b] − D[a]) (J or rad), D the shortest distance from a landmark
+    node on the current lower costs (docs/design.md §5d).
+
+    With the landmark the search's start, h(start, v) = D[v]: the bound-distance from the
+    start. ``d(L, b) ≤ d(L, a) + d(a, b)`` makes it a lower bound of d(a, b) for every pair
+    (also after the start moves), with h(a, a) = 0 and the triangle inequality: admissible
+    and consistent for every cost at least the one D was computed on — true costs above
+    their bounds, ∞ for refused or blocked edges. Nodes the landmark cannot reach get a
+    finite D above every reachable one (they cannot reach the goal from it either).
+
+    ``weight`` < 1 scales D (still admissible and consistent): with the exact distances,
+    every node of an optimal path would tie with the start's key, and D* Lite stops at
+    the first key not below the start's, leaving such nodes inconsistent and their
+    pointers stale; the weight keeps them strictly below.
+    """
+
+    def __init__(self, dist: np.ndarray, weight: float = 0.999) -> None:
+        dist = np.asarray(dist, dtype=float)
+        finite = np.isfinite(dist)
+        top = float(dist[finite].max()) + 1.0 if finite.any() else 1.0
+        # list: cheap scalar look-ups
+        self._d = (weight * np.where(finite, dist, top)).tolist()
+
+    def __call__(self, a: int, b: int) -> float:
+        d = self._d[b] - self._d[a]
+        return d if d > 0.0 else 0.0
 
 
 @dataclass
@@ -276,6 +306,26 @@ class CostView:
         rm = self.lazy.roadmap
         return Graph.from_arrays(rm.num_nodes, rm.src, rm.dst, self.costs())
 
+    def heuristic(self, landmark: int) -> LandmarkHeuristic:
+        """The focused search's heuristic (docs/design.md §5d): distances from ``landmark``
+        (the start) on the current costs — bounds where not evaluated — by one compiled
+        Dijkstra (``scipy.sparse.csgraph``)."""
+        from scipy.sparse import csr_matrix
+        from scipy.sparse.csgraph import dijkstra
+
+        rm = self.lazy.roadmap
+        c = self.costs()
+        ok = np.isfinite(c)
+        # built from (data, (i, j)): an explicit zero cost stays an edge for csgraph
+        G = csr_matrix((c[ok], (rm.src[ok], rm.dst[ok])), shape=(rm.num_nodes, rm.num_nodes))
+        return LandmarkHeuristic(dijkstra(G, indices=landmark))
+
+    def planner(self, planner_cls, start: int, goal: int, *, focused: bool = True) -> Planner:
+        """A planner on the current costs, focused by :meth:`heuristic` from ``start``
+        when ``focused`` (:meth:`settle` rebuilds it after the bounds are rescaled)."""
+        h = self.heuristic(start) if focused else None
+        return planner_cls(self.graph(), start, goal, heuristic=h)
+
     def _push(self, planner: Planner, ids: np.ndarray) -> None:
         rm = self.lazy.roadmap
         if ids.size:
@@ -305,6 +355,7 @@ class CostView:
         the edges simulated so far (by every search on these edges)."""
         lz = self.lazy
         rm = lz.roadmap
+        self.planner_used = planner
         with bar(None, f"lazy search ({self.kind})", unit=" rounds",
                  enabled=lz.progress) as rounds:
             while True:
@@ -312,26 +363,50 @@ class CostView:
                 ids = lz.edge_ids(path.nodes)
                 todo = ids[~lz.known[ids]]
                 if todo.size == 0:
+                    self.planner_used = planner
                     return path
                 lz.count.rounds += 1
                 # LazySP on collision too: certify the path's unchecked edges first; blocked
                 # ones leave in one update and the planner repairs before any simulation
                 blocked = lz.certify(todo)
+                checked = (f"{2 * lz.count.pairs_checked} edge checks, "
+                           if lz.count.pairs_checked else "")
                 if blocked.size:
                     self._push(planner, blocked)
+                    rounds.set_postfix_str(f"{checked}{lz.count.simulated} edges simulated",
+                                           refresh=False)
                     rounds.update(1)
                     continue
-                rounds.set_postfix_str(f"{lz.count.simulated} edges simulated (+{todo.size})")
+                rounds.set_postfix_str(
+                    f"{checked}{lz.count.simulated} edges simulated (+{todo.size})")
                 rescaled = lz.evaluate(todo)
-                rounds.set_postfix_str(f"{lz.count.simulated} edges simulated", refresh=False)
+                rounds.set_postfix_str(f"{checked}{lz.count.simulated} edges simulated",
+                                       refresh=False)
                 rounds.update(1)
                 if rescaled and self.kind == "energy":
+                    if isinstance(planner.heuristic, LandmarkHeuristic):
+                        # lower bounds dropped: the heuristic may overestimate now, so
+                        # the focused search starts again on the new costs (§5d)
+                        planner = self._refocus(planner)
+                        continue
                     todo = np.union1d(todo, np.flatnonzero(~rm.evaluated & ~lz.refused))
                 self._push(planner, todo)
 
+    def _refocus(self, old: Planner) -> Planner:
+        """A new focused planner from ``old``'s start on the current costs; the work done
+        so far stays in its statistics."""
+        new = self.planner(type(old), old.start, old.goal)
+        new.stats = old.stats.copy()
+        new._stats_mark = old._stats_mark.copy()
+        self.planner_used = new
+        return new
 
-def lazy_plan(lazy: LazyEdges, planner_cls, kind: str = "energy") -> tuple[Path, Planner]:
-    """One lazy search from the roadmap's start to its goal: (path, planner)."""
+
+def lazy_plan(lazy: LazyEdges, planner_cls, kind: str = "energy", *,
+              focused: bool = False) -> tuple[Path, Planner]:
+    """One lazy search from the roadmap's start to its goal: (path, planner); ``focused``:
+    with the bound-distance heuristic (:meth:`CostView.heuristic`)."""
     view = CostView(lazy, kind)
-    p = planner_cls(view.graph(), lazy.roadmap.start, lazy.roadmap.goal)
-    return view.settle(p), p
+    p = view.planner(planner_cls, lazy.roadmap.start, lazy.roadmap.goal, focused=focused)
+    path = view.settle(p)
+    return path, view.planner_used

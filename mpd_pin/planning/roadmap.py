@@ -552,15 +552,17 @@ def build_roadmap(
         cache = npz_path(cache)
         if cache.exists():
             loaded = Roadmap.load(cache, expected_key=key, nq=arm.nq)
-            shutil.rmtree(partial_dir(cache), ignore_errors=True)  # a leftover of this build
             finish = check_edges and not loaded.checked_mask.all()
             if finish:
                 loaded = complete_checks(loaded, checker, options.resolution, show_progress)
             if evaluate and not loaded.evaluated.all():
-                loaded = complete_roadmap(cost, loaded, options, show_progress)
+                # finished chunks kept beside the file: an interrupted completion resumes
+                loaded = complete_roadmap(cost, loaded, options, show_progress,
+                                          resume=(cache, key), tqdm=tqdm)
                 finish = True
             if finish:
                 loaded.save(cache)
+            shutil.rmtree(partial_dir(cache), ignore_errors=True)  # done: no leftovers
             return loaded
 
     timings: dict[str, float] = {}

@@ -9,6 +9,11 @@ A cell that raises fails the test with the cell's traceback; a notebook that
 produces no image output (``image/png`` or ``image/svg+xml``) fails too, so one
 that silently plots nothing is caught.
 
+The notebooks use only the public API (docs/design.md §8): the top-level names of
+``mpd_pin`` (``mpd_pin.__all__``) and the subpackages ``mpd_pin.search`` and
+``mpd_pin.twolink``; ``test_public_api_only`` parses every code cell's imports and its
+``mpd_pin.<name>`` attribute uses with ``ast``.
+
 The ``.ipynb`` files are the source, and they are committed *executed* so that their figures show
 on GitHub: every code cell carries the outputs of one top-to-bottom run (execution counts 1, 2, …),
 no cell output is an error, at least one is an image, and no output contains an absolute path of
@@ -18,6 +23,7 @@ this test runs it:  ``python tests/test_notebooks.py [notebooks/NAME.ipynb ...]`
 
 from __future__ import annotations
 
+import ast
 import os
 import re
 import sys
@@ -102,6 +108,93 @@ def test_notebooks_extra_and_readme():
                 assert dist in installed, f"{path.name} imports {mod}: not in the notebooks extra"
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     assert 'pip install -e ".[notebooks]"' in readme and "jupyter lab notebooks/" in readme
+
+
+# The public API of docs/design.md §8: the top-level names, and these subpackages (with
+# their modules). Everything else (mpd_pin.app, .planning, .collision, .dynamics, .viz,
+# .motion, .world, .arm, .errors, …) is internal: the notebooks must not import it.
+PUBLIC_SUBPACKAGES = ("mpd_pin.search", "mpd_pin.twolink")
+
+
+def _public_module(name: str) -> bool:
+    return name == "mpd_pin" or any(
+        name == p or name.startswith(p + ".") for p in PUBLIC_SUBPACKAGES
+    )
+
+
+def _public_top_level() -> set[str]:
+    import mpd_pin  # cheap: the top-level names load lazily
+
+    return set(mpd_pin.__all__) | {"__version__", "search", "twolink"}
+
+
+def private_uses(source: str, public: set[str]) -> list[str]:
+    """What the code cell ``source`` (IPython syntax allowed) uses of mpd_pin outside its
+    public API: ``import``/``from … import`` of a non-public module or top-level name, and
+    ``mp.<name>`` for a name ``mp`` bound to the package. Each as a short description."""
+    from IPython.core.inputtransformer2 import TransformerManager
+
+    tree = ast.parse(TransformerManager().transform_cell(source))
+    bad: list[str] = []
+    package_names: set[str] = set()  # local names bound to the mpd_pin package itself
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name.split(".")[0] != "mpd_pin":
+                    continue
+                if not _public_module(alias.name):
+                    bad.append(f"import {alias.name}")
+                if alias.asname is None:
+                    package_names.add("mpd_pin")  # `import mpd_pin.x` binds mpd_pin
+                elif alias.name == "mpd_pin":
+                    package_names.add(alias.asname)
+        elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "mpd_pin":
+            if node.level:
+                continue
+            if node.module == "mpd_pin":
+                bad += [f"from mpd_pin import {a.name}" for a in node.names
+                        if a.name not in public]
+            elif not _public_module(node.module):
+                bad.append(f"from {node.module} import "
+                           + ", ".join(a.name for a in node.names))
+    for node in ast.walk(tree):
+        if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+                and node.value.id in package_names and node.attr not in public):
+            bad.append(f"{node.value.id}.{node.attr}")
+    return bad
+
+
+def test_private_uses_detected():
+    """The check itself: internal imports and attributes are found, public ones pass."""
+    public = _public_top_level()
+    found = private_uses(
+        "%matplotlib inline\n"
+        "import mpd_pin as mp\nimport mpd_pin.twolink as tl\nfrom mpd_pin import plan, Box\n"
+        "from mpd_pin.search import Graph\nfrom mpd_pin.twolink import plots\n"
+        "from mpd_pin.app.scenario import builtin_scenarios\nimport mpd_pin.viz.plots\n"
+        "from mpd_pin import dynamics\nx = mp.EnergyPlanner\ny = mp.collision.CollisionChecker\n",
+        public,
+    )
+    assert found == [
+        "from mpd_pin.app.scenario import builtin_scenarios",
+        "import mpd_pin.viz.plots",
+        "from mpd_pin import dynamics",
+        "mp.collision",
+    ], found
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
+def test_public_api_only(path):
+    """No code cell imports or uses a non-public part of mpd_pin (docs/design.md §8)."""
+    public = _public_top_level()
+    nb = nbformat.read(path, as_version=4)
+    bad = [
+        f"cell {k}: {use}"
+        for k, cell in enumerate(nb.cells)
+        if cell.cell_type == "code"
+        for use in private_uses(cell.source, public)
+    ]
+    assert not bad, f"{path.name} uses internals of mpd_pin: " + "; ".join(bad)
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])

@@ -57,6 +57,18 @@ def execute(nb: nbformat.NotebookNode) -> None:
     client.execute()
 
 
+#: Notebooks that show energies of the paper's Table 7 motor: they print the console's
+#: warning with them (issue 23).
+PAPER_MOTOR_NOTEBOOKS = {"02_energy_optimal_paths", "03_replanning_meshcat",
+                         "04_table6_comparison"}
+
+
+def _text(nb) -> str:
+    """Everything the code cells printed (stream outputs)."""
+    return "".join(out.get("text", "") for cell in nb.cells if cell.cell_type == "code"
+                   for out in cell.get("outputs", []) if out.get("output_type") == "stream")
+
+
 def _images(nb) -> int:
     return sum(
         1
@@ -229,6 +241,8 @@ def test_notebook_runs(path, monkeypatch):
     elapsed = time.perf_counter() - t0
     sys.stderr.write(f"\n{path.name}: {elapsed:.1f} s\n")
     assert _images(nb) >= 1, f"{path.name} produced no image output (no figure was shown)"
+    if path.stem in PAPER_MOTOR_NOTEBOOKS:  # energies of the paper's Table 7 motor
+        assert "warning: the paper's Table 7 motor" in _text(nb), path.name
     # Kernel start and every cell, wall clock, measured here.
     assert elapsed < NOTEBOOK_BUDGET, f"{path.name} took {elapsed:.1f} s (≥ {NOTEBOOK_BUDGET} s)"
 

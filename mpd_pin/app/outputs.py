@@ -11,7 +11,8 @@ where every non-finite number is ``null``) holds:
 * ``warnings`` — one sentence per thing a reader should know before trusting the numbers
   (:func:`run_warnings`: the paper's Table 7 motor, with a pointer to the README section);
 * ``roadmap`` — ``num_nodes`` (``options.num_nodes`` samples + start + goal), ``num_edges``
-  (eager: the feasible directed edges; lazy: every collision-free directed edge),
+  (eager: the feasible directed edges; lazy: every collision-free directed edge, every
+  candidate edge with lazy collision checks),
   ``evaluation`` (``lazy``/``eager``), ``edges_evaluated`` (directed edges simulated for
   planning, reused from a cache file included), ``lazy`` (``rounds``,
   ``bound_median_ratio``, ``bound_violations``, ``bound_worst_ratio``, and when lazy the
@@ -327,7 +328,7 @@ def _roadmap_record(
         num_edges, evaluated = roadmap.num_edges, roadmap.num_edges + refused
         lazy_rec: dict[str, Any] = {"rounds": 0, "bound_median_ratio": None,
                                     "bound_violations": 0, "bound_worst_ratio": None}
-    else:  # lazy: every collision-free directed edge (refused ones found so far included)
+    else:  # lazy: every collision-free (lazy checks: candidate) directed edge, refused included
         dropped = refused - lazy.count.refused  # refused in an earlier run, not in the arrays
         num_edges, evaluated = roadmap.num_edges + dropped, lazy.edges_evaluated + dropped
         lazy_rec = lazy.record()

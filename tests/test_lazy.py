@@ -379,13 +379,17 @@ def test_evaluation_key_and_cli(tmp_path, capsys):
     assert "--evaluation does not apply" in capsys.readouterr().err
 
 
-def test_result_json_fields_lazy_eager_and_cache_reuse(tmp_path):
+def test_result_json_fields_lazy_eager_and_cache_reuse(tmp_path, case1_cached):
+    """case1 lazy with a roadmap file (the session's shared run, conftest.case1_cached),
+    again on (a copy of) that file, and eager."""
     import json
+    import shutil
 
+    _, lazy_out, shared_cache = case1_cached
     cache = tmp_path / "rm.npz"
-    runs = {}
-    for tag, extra in (("lazy", ["--cache", str(cache)]), ("again", ["--cache", str(cache)]),
-                       ("eager", ["--evaluation", "eager"])):
+    shutil.copyfile(shared_cache, cache)
+    runs = {"lazy": json.loads((lazy_out / "result.json").read_text())}
+    for tag, extra in (("again", ["--cache", str(cache)]), ("eager", ["--evaluation", "eager"])):
         out = tmp_path / tag
         assert main(["run", "case1", "--out", str(out), "--quiet", "--no-replay", *extra]) == 0
         runs[tag] = json.loads((out / "result.json").read_text())

@@ -1,19 +1,19 @@
 """Absurd and non-finite scenario numbers are refused where they are read (docs/design.md §7b).
 
-Every bad value below goes through the real command (``python -m mpd_pin run FILE --out DIR``):
-exit status 2, exactly one line on stderr naming the key (no numpy RuntimeWarning before it),
-and nothing written. Valid extreme-but-physical values, the bounds themselves and every
-built-in scenario still parse.
+Every bad value below goes through the command (``mpd-pin run FILE --out DIR``, in-process
+with stdout/stderr captured at the file descriptors and warnings shown as a fresh interpreter
+shows them: tests/conftest.py ``run_cli``): exit status 2, exactly one line on stderr naming
+the key (no numpy RuntimeWarning before it), and nothing written. Valid extreme-but-physical
+values, the bounds themselves and every built-in scenario still parse.
 """
 
 import copy
 import math
 import re
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from conftest import run_cli
 
 from mpd_pin.app import cli
 from mpd_pin.app.config import ConfigError
@@ -255,8 +255,7 @@ def test_bad_number_is_one_line_exit_2(case, tmp_path):
     path = tmp_path / "bad.toml"
     path.write_text(to_toml(mutate(builtin(base))))
     out = tmp_path / "out"
-    res = subprocess.run([sys.executable, "-m", "mpd_pin", "run", str(path), "--out", str(out),
-                          "--quiet"], capture_output=True, text=True, timeout=300)
+    res = run_cli("run", path, "--out", out, "--quiet")
     assert res.returncode == 2, res.stderr
     lines = res.stderr.splitlines()
     assert len(lines) == 1, res.stderr
@@ -400,9 +399,7 @@ def _hand_scenario(tmp_path, limits=None, roadmap=None, v_max=24.0, goal=(0.0, 0
 
 
 def _run_cli(path, tmp_path):
-    res = subprocess.run([sys.executable, "-m", "mpd_pin", "run", str(path), "--out",
-                          str(tmp_path / "out"), "--quiet"], capture_output=True, text=True,
-                         timeout=300)
+    res = run_cli("run", path, "--out", tmp_path / "out", "--quiet")
     return res.returncode, res.stderr.splitlines()
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import example_robot_data  # a declared dependency: a plain import, never a skip
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -72,18 +73,14 @@ def mixed_joints_xml(prismatic_root: bool = False) -> str:
     return '<robot name="mixed">' + "".join(links + joints) + "</robot>"
 
 
-def _erd():
-    return pytest.importorskip("example_robot_data")
-
-
 def panda_model() -> pin.Model:
-    full = _erd().load("panda").model
+    full = example_robot_data.load("panda").model
     lock = [full.getJointId(n) for n in ("panda_finger_joint1", "panda_finger_joint2")]
     return pin.buildReducedModel(full, lock, pin.neutral(full))
 
 
 def ur5_model() -> pin.Model:
-    return _erd().load("ur5").model
+    return example_robot_data.load("ur5").model
 
 
 def panda_with_armature() -> pin.Model:
@@ -106,7 +103,7 @@ def prismatic_root_model() -> pin.Model:
 
 def panda_tree_model() -> pin.Model:
     """Panda with both (prismatic) finger joints: a branching kinematic tree."""
-    return _erd().load("panda").model
+    return example_robot_data.load("panda").model
 
 
 MODELS = {

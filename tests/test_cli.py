@@ -8,7 +8,7 @@ import textwrap
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import _no_constant, read_result, run_cli
+from conftest import _no_constant, read_result, run_cli, run_cli_subprocess, run_once
 from replay_helpers import animation_clips, decode_commands, screenshots, track
 from scenario_texts import SMALL_2LINK
 
@@ -33,14 +33,11 @@ def test_scenarios_lists_all_builtins():
 
 @pytest.fixture(scope="module")
 def builtin_run(tmp_path_factory):
-    """``mpd-pin run NAME --out DIR --quiet`` once per built-in scenario → (process, DIR)."""
-    runs = {}
+    """``mpd-pin run NAME --out DIR --quiet`` once per built-in scenario (a run shared with
+    other test files: conftest.run_once) → (process, DIR)."""
 
     def run(name):
-        if name not in runs:
-            out = tmp_path_factory.mktemp(name) / "out"
-            runs[name] = (run_cli("run", name, "--out", str(out), "--quiet"), out)
-        return runs[name]
+        return run_once(tmp_path_factory, name, "--quiet")
 
     return run
 
@@ -270,19 +267,37 @@ def _write(tmp_path, text):
 GOOD = "\n" + textwrap.indent(SMALL_2LINK, "    ")
 
 
-def _assert_one_line_error(res, pattern):
-    assert res.returncode != 0
+#: The exit status of bad input and of no path, and the prefix of their one stderr line
+#: (mpd_pin/app/cli.py).
+PREFIX = {2: "mpd-pin: error: ", 3: "mpd-pin: no path: "}
+
+
+def _assert_one_line_error(res, pattern, code=2):
+    assert res.returncode == code, res.stderr
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1, res.stderr
     assert "Traceback" not in res.stderr
+    assert lines[0].startswith(PREFIX[code]), lines[0]
     assert pattern in lines[0], lines[0]
+    assert res.stdout == ""
 
 
-def test_small_custom_scenario_runs(tmp_path):
-    res = run_cli("run", str(_write(tmp_path, GOOD)), "--out", str(tmp_path / "o"), "--quiet",
-                  "--no-replay", "--seed", "4")
+#: The flags of the small custom run (a --seed override, no replay).
+SMALL_FLAGS = ("--quiet", "--no-replay", "--seed", "4")
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    """``mpd-pin run s.toml --out DIR SMALL_FLAGS`` (GOOD) once → (scenario file, process,
+    DIR)."""
+    scn = _write(tmp_path_factory.mktemp("small"), GOOD)
+    return (scn, *run_once(tmp_path_factory, str(scn), *SMALL_FLAGS))
+
+
+def test_small_custom_scenario_runs(small_run):
+    _, res, out = small_run
     assert res.returncode == 0, res.stderr
-    result = read_result(tmp_path / "o")
+    result = read_result(out)
     assert result["roadmap"]["options"]["seed"] == 4
 
 
@@ -339,14 +354,47 @@ def test_unreachable_goal(tmp_path):
     height = 0.1
     """
     res = run_cli("run", str(_write(tmp_path, text)), "--out", str(tmp_path / "o"), "--quiet")
-    assert res.returncode == 3
-    _assert_one_line_error(res, "no path")
+    _assert_one_line_error(res, "no path", code=3)
 
 
 def test_bad_urdf_path(tmp_path):
     text = GOOD.replace('builtin = "planar_2link"', 'urdf = "missing.urdf"')
     res = run_cli("run", str(_write(tmp_path, text)), "--out", str(tmp_path / "o"), "--quiet")
     _assert_one_line_error(res, "URDF file not found")
+
+
+def test_out_is_an_existing_file(tmp_path):
+    """``--out`` naming a regular file: exit 2, the line names --out, the file untouched."""
+    blocker = tmp_path / "o"
+    blocker.write_text("keep me")
+    res = run_cli("run", str(_write(tmp_path, GOOD)), "--out", str(blocker), "--quiet")
+    _assert_one_line_error(res, f"--out {str(blocker)!r} exists and is not a directory")
+    assert blocker.read_text() == "keep me"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o", "s.toml"]
+
+
+@pytest.mark.parametrize(
+    "task, line",
+    [
+        # an unknown frame for the IK of goal_ee: the key and the frame named
+        ('start = [0.3, 0.2]\n    goal_ee = [0.5, 0.3]\n    ee_frame = "nosuch"',
+         "task.goal_ee: arm 'planar_2link' has no frame 'nosuch'"),
+        # ee_frame without start_ee/goal_ee is never read: an unknown key
+        ('start = [0.3, 0.2]\n    goal = [1.2, -0.4]\n    ee_frame = "ee"',
+         "task: unknown key(s) 'ee_frame'"),
+        # goal_seed (with goal_ee) needs one angle per joint
+        ("start = [0.3, 0.2]\n    goal_ee = [0.5, 0.3]\n    goal_seed = [0.1, 0.2, 0.3]",
+         "task.goal_seed: expected 2 numbers, got 3"),
+        ("start = [0.3, 0.2]\n    goal_ee = [0.5, 0.3]\n    goal_seed = [0.1]",
+         "task.goal_seed: expected 2 numbers, got 1"),
+    ],
+)
+def test_bad_ik_task_keys(tmp_path, task, line):
+    text = GOOD.replace("start = [0.3, 0.2]\n    goal = [1.2, -0.4]", task)
+    assert task in text
+    res = run_cli("run", str(_write(tmp_path, text)), "--out", str(tmp_path / "o"), "--quiet")
+    _assert_one_line_error(res, line)
+    assert not (tmp_path / "o").exists()
 
 
 @pytest.mark.parametrize(
@@ -478,6 +526,103 @@ def test_unexpected_exceptions_are_one_line(tmp_path, monkeypatch, capsys, exc, 
     assert status == code
     assert captured.err == line + "\n"
     assert captured.out == ""
+
+
+# ------------------------------------------------------------------ the real entry point
+# The other tests run the command in-process (conftest.run_cli); these start
+# ``python -m mpd_pin`` (the console script ``mpd-pin``: tests/test_readme.py) in a fresh
+# interpreter and check that both give the same answers.
+
+
+def _same(a, b):
+    assert (a.returncode, a.stdout, a.stderr) == (b.returncode, b.stdout, b.stderr)
+
+
+def test_python_m_mpd_pin_end_to_end(tmp_path, small_run):
+    """A run, bad input (status 2) and a bad argument (argparse, status 2) through the real
+    entry point: the statuses reach the shell, and they, stdout and stderr equal the
+    in-process helper's; the run's result equals the in-process run's (small_run)."""
+    scn, res_in, out_in = small_run
+    for args in (["run", "case99", "--out", str(tmp_path / "x")],
+                 ["run", str(scn), "--quiet", "--planner", "bogus"]):
+        sub = run_cli_subprocess(*args)
+        assert sub.returncode == 2 and sub.stderr.startswith(
+            ("mpd-pin: error: ", "usage: mpd-pin run")), sub.stderr
+        _same(sub, run_cli(*args))
+    out = tmp_path / "o"
+    sub = run_cli_subprocess("run", str(scn), "--out", str(out), *SMALL_FLAGS)
+    for res in (sub, res_in):
+        assert res.returncode == 0, res.stderr
+        assert res.stderr == "" and res.stdout.count("\n") == 1
+    assert sub.stdout.replace(str(out), str(out_in)) == res_in.stdout
+    a, b = read_result(out), read_result(out_in)
+    assert a["path"] == b["path"] and a["total_energy"] == b["total_energy"]
+    assert a["roadmap"]["key"] == b["roadmap"]["key"]
+
+
+def test_in_process_helper_hides_nothing_a_process_shows(tmp_path, monkeypatch):
+    """conftest.run_cli shows what ``python -m mpd_pin`` would: a RuntimeWarning raised in
+    the command on stderr (where pytest would record and hide it; a DeprecationWarning stays
+    hidden, as in a fresh interpreter), what native code writes to file descriptors 1 and
+    2, the working directory asked for (and back after), ``--help`` as status 0."""
+    import os
+    import warnings
+    from pathlib import Path
+
+    from mpd_pin.app import cli
+
+    def noisy(_args):
+        warnings.warn("overflow ahead", RuntimeWarning, stacklevel=1)
+        warnings.warn("old", DeprecationWarning, stacklevel=1)
+        os.write(2, b"native err\n")
+        os.write(1, b"native out\n")
+        print(Path.cwd())
+        return 0
+
+    monkeypatch.setattr(cli, "cmd_scenarios", noisy)
+    here = Path.cwd()
+    res = run_cli("scenarios", cwd=tmp_path)
+    assert res.returncode == 0
+    lines = res.stderr.splitlines()
+    assert len(lines) == 3 and lines[0].endswith("RuntimeWarning: overflow ahead"), lines
+    assert lines[2] == "native err" and "old" not in res.stderr
+    assert res.stdout == f"native out\n{tmp_path}\n"
+    assert Path.cwd() == here
+    res = run_cli("run", "--help")
+    assert res.returncode == 0 and res.stdout.startswith("usage: mpd-pin run") and not res.stderr
+
+
+def test_ctrl_c_interrupts_a_real_run(tmp_path):
+    """SIGINT to ``python -m mpd_pin run case1`` while it builds the roadmap (after its
+    first progress output): status 130, ``mpd-pin: interrupted`` ends stderr, no output
+    folder."""
+    import os
+    import select
+    import signal
+    import subprocess
+    import sys
+
+    out = tmp_path / "o"
+    proc = subprocess.Popen([sys.executable, "-m", "mpd_pin", "run", "case1", "--out",
+                             str(out), "--no-replay"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    try:
+        ready, _, _ = select.select([proc.stderr], [], [], 300)
+        assert ready, "no progress output within 300 s"
+        first = os.read(proc.stderr.fileno(), 1)  # the progress bar: main() is running
+        assert first and proc.poll() is None
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    err = (first + stderr).decode()
+    assert proc.returncode == 130, err
+    # (the message may follow a progress bar drawn on the same line, without a newline)
+    assert err.endswith("mpd-pin: interrupted\n") and err.count("mpd-pin:") == 1, err
+    assert "Traceback" not in err and stdout == b""
+    assert not out.exists()
 
 
 def test_replay_indices_always_end_with_the_last_sample():

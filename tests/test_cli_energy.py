@@ -311,7 +311,10 @@ def test_bad_scenario_and_options(qs, tmp_path, capsys):
         assert words in err, err
 
 
-def test_energy_subprocess(qs, tmp_path):
+def test_energy_command_line(qs, tmp_path):
+    """``mpd-pin energy`` through conftest.run_cli (the entry point itself:
+    test_cli.test_python_m_mpd_pin_end_to_end): a path file whose name has a space, the JSON
+    written beside it with mode 0644, the one line it prints."""
     scn, checker, W, _ = qs
     path = write_csv(tmp_path / "my path.csv", W.tolist())
     res = run_cli("energy", "quickstart", str(path), "--execution", "stop")

@@ -102,16 +102,20 @@ def test_load_scenario_returns_the_kind_of_every_builtin():
     assert set(builtin_scenarios()) >= {"case1", "env1", "env2"}
 
 
-def test_planner_override_same_energy_as_mpdstar(tmp_path):
-    """Dijkstra and MPD* Lite both find the minimum-energy path on the same roadmap."""
+def test_planner_override_same_energy_as_mpdstar(tmp_path, case1_cached):
+    """Dijkstra and MPD* Lite both find the minimum-energy path on the same roadmap: MPD*
+    Lite is the default planner of the session's shared case1 run (conftest.case1_cached),
+    ``--planner dijkstra`` runs on a copy of its roadmap file."""
+    _, mpdstar_out, shared_cache = case1_cached
     cache = tmp_path / "roadmap.npz"
-    results = {}
-    for planner in ("mpdstar", "dijkstra"):
-        out = tmp_path / planner
-        status = cli_main(["run", "case1", "--out", str(out), "--quiet", "--no-replay",
-                           "--cache", str(cache), "--planner", planner])
-        assert status == 0
-        results[planner] = json.loads((out / "result.json").read_text())
+    shutil.copyfile(shared_cache, cache)
+    results = {"mpdstar": json.loads((mpdstar_out / "result.json").read_text())}
+    out = tmp_path / "dijkstra"
+    status = cli_main(["run", "case1", "--out", str(out), "--quiet", "--no-replay",
+                       "--cache", str(cache), "--planner", "dijkstra"])
+    assert status == 0
+    results["dijkstra"] = json.loads((out / "result.json").read_text())
+    assert results["dijkstra"]["roadmap"]["cache"] == {"path": str(cache), "reused": True}
     assert results["dijkstra"]["planner"] == "dijkstra"
     assert results["mpdstar"]["planner"] == "mpdstar"
     assert results["dijkstra"]["total_energy"] == results["mpdstar"]["total_energy"]

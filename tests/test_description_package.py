@@ -7,13 +7,12 @@ import json
 import math
 import shutil
 import struct
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import run_cli
 
 import mpd_pin as mp
 from mpd_pin.app.cli import main
@@ -223,10 +222,7 @@ srdf = "{rel}/srdf/box_arm.srdf"
 xacro_args = {{ length = 0.6 }}
 lock = {{ finger_joint = 0.01 }}""")
     out = tmp_path / "out"
-    proc = subprocess.run(
-        [sys.executable, "-m", "mpd_pin", "run", str(scn), "--out", str(out), "--quiet",
-         "--no-replay"], capture_output=True, text=True, cwd="/", timeout=300,
-    )
+    proc = run_cli("run", scn, "--out", out, "--quiet", "--no-replay", cwd="/")
     assert proc.returncode == 0, proc.stderr
     res = json.loads((out / "result.json").read_text())
     assert res["joint_names"] == ["joint1", "joint2"]

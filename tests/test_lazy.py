@@ -379,16 +379,19 @@ def test_evaluation_key_and_cli(tmp_path, capsys):
     assert "--evaluation does not apply" in capsys.readouterr().err
 
 
-def test_result_json_fields_lazy_eager_and_cache_reuse(tmp_path):
+def test_result_json_fields_lazy_eager_and_cache_reuse(tmp_path, case1_cached):
+    """case1 lazy with a roadmap file (the session's shared run, conftest.case1_cached),
+    again on (a copy of) that file, and eager."""
     import json
+    import shutil
 
+    _, lazy_out, shared_cache = case1_cached
     cache = tmp_path / "rm.npz"
-    runs = {}
-    # evaluation only: every edge collision-checked first, so that the edge counts compare
-    # (lazy collision checking: tests/test_lazy_collision.py)
-    eager_checks = ["--collision", "eager"]
-    for tag, extra in (("lazy", ["--cache", str(cache), *eager_checks]),
-                       ("again", ["--cache", str(cache), *eager_checks]),
+    shutil.copyfile(shared_cache, cache)
+    runs = {"lazy": json.loads((lazy_out / "result.json").read_text())}
+    # evaluation only: the shared run checks every edge first (--collision eager), so that
+    # the edge counts compare (lazy collision checking: tests/test_lazy_collision.py)
+    for tag, extra in (("again", ["--cache", str(cache), "--collision", "eager"]),
                        ("eager", ["--evaluation", "eager"])):
         out = tmp_path / tag
         assert main(["run", "case1", "--out", str(out), "--quiet", "--no-replay", *extra]) == 0

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import read_result, run_once
 
 from mpd_pin.app.cli import main
 from mpd_pin.app.kinds import load_scenario
@@ -29,11 +30,11 @@ def _csv(out: Path) -> tuple[list[str], np.ndarray]:
 
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory):
-    """quickstart run with the default [motion] (auto, refine), no replay."""
-    out = tmp_path_factory.mktemp("quick")
-    scn = load_scenario("quickstart")
-    run_energy_scenario(scn, out, show_progress=False, replay=False)
-    return scn, out, json.loads((out / "result.json").read_text(encoding="utf-8"))
+    """quickstart run with the default [motion] (auto, refine): ``mpd-pin run quickstart
+    --quiet``, shared with tests/test_cli.py (conftest.run_once)."""
+    res, out = run_once(tmp_path_factory, "quickstart", "--quiet")
+    assert res.returncode == 0, res.stderr
+    return load_scenario("quickstart"), out, read_result(out)
 
 
 def test_quickstart_returns_a_refined_motion_cheaper_than_the_roadmap_path(quick_run):
@@ -95,17 +96,20 @@ def test_quickstart_motion_files_are_the_motion(quick_run):
     assert traj["points"][-1]["time_from_start"] == pytest.approx(t[-1])
 
 
-def test_paper_scenario_keeps_the_roadmap_path_bit_for_bit(tmp_path):
+def test_paper_scenario_keeps_the_roadmap_path_bit_for_bit(tmp_path_factory):
     """case1 ([motion] stop, no refine): the motion is the roadmap path and its energy the
-    roadmap's, pinned to the value before motions existed (86,160.8 J, README)."""
+    roadmap's, pinned to the value before motions existed (86,160.8 J, README). The run is
+    ``mpd-pin run case1 --quiet``, shared with tests/test_cli.py (conftest.run_once)."""
     scn = load_scenario("case1")
     assert scn.motion.execution == "stop" and not scn.motion.refine
-    r = run_energy_scenario(scn, tmp_path, show_progress=False, replay=False)
+    res, out = run_once(tmp_path_factory, "case1", "--quiet")
+    assert res.returncode == 0, res.stderr
+    r = read_result(out)
     assert r["total_energy"] == r["roadmap_path"]["total_energy"]
     assert r["total_energy"] == pytest.approx(86160.8, abs=0.05)
     assert r["motion"]["execution"] == "stop" and "refinement" not in r["motion"]
     assert r["motion"]["stops"] == len(r["path"]["nodes"]) - 2
-    assert not (tmp_path / "energy_duration.png").exists()
+    assert not (out / "energy_duration.png").exists()
 
 
 def test_no_refine_stop_prices_the_roadmap_path_exactly(tmp_path, capsys):

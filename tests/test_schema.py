@@ -10,11 +10,10 @@ from pathlib import Path
 
 import jsonschema
 import pytest
-from conftest import read_result, run_cli, validate_new_results
+from conftest import read_result, run_cli, run_once, validate_new_results
 from scenario_texts import SMALL_2LINK
 
 from mpd_pin.app.results import result_schema, validate_result
-from mpd_pin.twolink.run import run_dynamic_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -32,12 +31,11 @@ def energy_result(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def dynamic_result(tmp_path_factory):
-    from importlib import resources
-
-    data = tomllib.loads((resources.files("mpd_pin") / "scenarios" / "env1.toml").read_text())
-    out = tmp_path_factory.mktemp("schema_env1")
-    return json.loads(json.dumps(run_dynamic_scenario(data, out, show_progress=False,
-                                                      plots=False)))
+    """env1's result.json from ``mpd-pin run env1 --quiet``, a run shared with
+    tests/test_twolink_scenarios.py (conftest.run_once)."""
+    res, out = run_once(tmp_path_factory, "env1", "--quiet")
+    assert res.returncode == 0, res.stderr
+    return read_result(out)
 
 
 def _fails(doc, pattern):

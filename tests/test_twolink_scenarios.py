@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_once
 
 from mpd_pin.app.cli import main as cli_main
 from mpd_pin.app.config import ConfigError
@@ -118,9 +119,10 @@ def _urdf_velocity_limits():
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     out = {}
-    d1 = tmp_path_factory.mktemp("env1")
-    # env1 through the CLI (dispatch on kind = "dynamic2link"), env2 directly.
-    assert cli_main(["run", "env1", "--out", str(d1), "--quiet"]) == 0
+    # env1 through the CLI (dispatch on kind = "dynamic2link"; the run is shared with
+    # tests/test_schema.py: conftest.run_once), env2 directly.
+    res1, d1 = run_once(tmp_path_factory, "env1", "--quiet")
+    assert res1.returncode == 0, res1.stderr
     out["env1"] = (json.loads((d1 / "result.json").read_text()), d1)
     d2 = tmp_path_factory.mktemp("env2")
     res = run_dynamic_scenario(_data("env2"), d2, show_progress=False)

@@ -34,8 +34,11 @@ def _fresh(rm):
 
 @pytest.fixture(scope="module")
 def quickstart():
-    """The quickstart scenario's lazy roadmap, and a copy with every edge simulated."""
-    scn = load_scenario("quickstart")
+    """The quickstart scenario's lazy roadmap (every edge collision-checked), and a copy
+    with every edge simulated."""
+    import dataclasses
+
+    scn = dataclasses.replace(load_scenario("quickstart"), collision="eager")
     setup = prepare(scn, show_progress=False)
     full = _fresh(setup.roadmap)
     refused = evaluate_edges(setup.cost, full, np.arange(full.num_edges), scn.options)

@@ -446,16 +446,24 @@ def test_ctrl_c_during_a_lazy_search_keeps_what_was_simulated(tmp_path, monkeypa
     from mpd_pin.app.plan import plan_path, prepare
     from mpd_pin.app.planner import configure
 
-    scn = configure(mp.load_scenario("quickstart"), num_nodes=60)
+    scn = configure(mp.load_scenario("quickstart"), collision="eager")
     cache = tmp_path / "rm.npz"
+    real = LazyEdges.evaluate
+    batches = []
+
+    def counted(self, ids):
+        batches.append(len(ids))
+        return real(self, ids)
+
+    monkeypatch.setattr(LazyEdges, "evaluate", counted)
     ref_setup = prepare(scn, show_progress=False)
     ref = plan_path(scn, ref_setup)
     total = ref_setup.lazy.count.simulated
-    real = LazyEdges.evaluate
+    assert len(batches) >= 2  # something left to simulate after the first batch
     calls = []
 
     def interrupted(self, ids):
-        if len(calls) == 3:
+        if len(calls) == len(batches) // 2:
             raise KeyboardInterrupt
         calls.append(len(ids))
         return real(self, ids)

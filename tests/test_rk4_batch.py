@@ -20,10 +20,12 @@ this one, the outcomes are compared to a relative 1e-9 instead and the test says
 
 from __future__ import annotations
 
+import copy
 import functools
 import hashlib
 import platform
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -184,6 +186,25 @@ def test_recorded_series_bit_identical(reference, case):
     sel = ref[f"{case}/series_rows"]
     want = [d.decode() for d in ref[f"{case}/series_sha256"].tolist()]
     assert _series_digests(drive, Q0[sel], Q1[sel], T[sel]) == want
+
+
+def test_copies_and_threads_share_no_buffers(reference):
+    """What is kept per drive (ModelPool, RNEA plans, constants) is neither carried into a
+    deep copy nor shared by concurrent batches: both give the very same numbers."""
+    ref, exact = reference
+    drive = _drive("case1")
+    Q0, Q1, T = _edges(drive, "case1")
+    edge_outcomes(drive, Q0[:2], Q1[:2], T[:2], DT)  # fill the caches
+    twin = copy.deepcopy(drive)
+    res = edge_outcomes(twin, Q0, Q1, T, DT)
+    for name in FIELDS:
+        _compare(getattr(res, name), ref[f"case1/{name}"], exact, f"deep copy {name}")
+    rows = [slice(k, k + 5) for k in range(0, 20, 5)]
+    with ThreadPoolExecutor(4) as pool:
+        parts = list(pool.map(lambda r: edge_outcomes(drive, Q0[r], Q1[r], T[r], DT), rows))
+    for r, part in zip(rows, parts, strict=True):
+        for name in FIELDS:
+            _compare(getattr(part, name), ref[f"case1/{name}"][r], exact, f"threads {name}")
 
 
 def test_fixture_covers_the_branches(reference):

@@ -13,17 +13,18 @@ quintic edges of :mod:`mpd_pin.dynamics.simulate` and the non-stop motions of
 :mod:`mpd_pin.motion` are two ways of filling these tables; the integration is one.
 
 A batch has a fixed cost (the lazy planner runs many small ones), kept low the way
-Pinocchio keeps its Data: what depends only on the drive is made once and kept on the
-drive — the ``ModelPool`` (:func:`_pool`), the batched-RNEA evaluators with their recorded
-plans (:func:`_rnea_evaluators`), the per-joint integrator constants
+Pinocchio keeps its Data: what depends only on the drive is made once and kept for the
+drive (:func:`_cache`) — the ``ModelPool`` (:func:`_pool`), the batched-RNEA evaluators
+with their recorded plans (:func:`_rnea_evaluators`), the per-joint integrator constants
 (:func:`_step_constants`) — and the RK4 loop reuses buffers and views made before it, in
-about half the numpy calls per step it once needed (docs/design.md §3e, measured by
+fewer and cheaper numpy calls per step than it once needed (docs/design.md §3e, measured by
 ``bench/rk4_batch.py``). Every floating-point operation is the one it always was, in the
 same order: the energies are bit-identical (``tests/test_rk4_batch.py``).
 """
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,28 +36,41 @@ from .motor import Drive
 __all__ = ["feedforward_tables", "integrate_tables", "TrackedSeries"]
 
 
+#: What the integrator keeps per drive (see the module docstring), by drive: held outside
+#: the drive so that a copy of a drive (copy.deepcopy) never shares or copies it (a copied
+#: RNEA plan would no longer alias its own buffers), and freed with the drive.
+_CACHES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _cache(drive: Drive) -> dict:
+    cache = _CACHES.get(drive)
+    if cache is None:
+        cache = _CACHES[drive] = {}
+    return cache
+
+
 def _pool(drive: Drive, threads: int) -> pin.ModelPool:
-    """A ModelPool of the drive's (armature-carrying) model, cached on the drive."""
-    key = ("_mpd_pool", threads)
-    cached = drive.__dict__.get("_pool_cache")
-    if cached is None or cached[0] != key or cached[2] is not drive.model:
-        cached = (key, pin.ModelPool(drive.model, threads), drive.model)
-        drive.__dict__["_pool_cache"] = cached
+    """A ModelPool of the drive's (armature-carrying) model with ``threads`` Data, kept for
+    the drive (rebuilt if ``drive.model`` is replaced)."""
+    cache = _cache(drive)
+    cached = cache.get("pool")
+    if cached is None or cached[0] != threads or cached[2] is not drive.model:
+        cached = cache["pool"] = (threads, pin.ModelPool(drive.model, threads), drive.model)
     return cached[1]
 
 
 def _rnea_evaluators(drive: Drive) -> list:
     """Idle :class:`~mpd_pin.dynamics.batch.BatchRneaDerivative` evaluators of the drive's
-    (armature-carrying) model, kept on the drive: reading the model and recording a plan
+    (armature-carrying) model, kept for the drive: reading the model and recording a plan
     cost ~2 ms, once per drive instead of once per batch. Dropped when ``drive.model`` is
     replaced or its armature or gravity change (an evaluator reads the model only once)."""
     model = drive.model
     stamp = (np.asarray(model.armature, dtype=float).tobytes(),
              np.asarray(model.gravity.vector, dtype=float).tobytes())
-    cached = drive.__dict__.get("_mpd_rnea")
+    cache = _cache(drive)
+    cached = cache.get("rnea")
     if cached is None or cached[0] is not model or cached[1] != stamp:
-        cached = (model, stamp, [])
-        drive.__dict__["_mpd_rnea"] = cached
+        cached = cache["rnea"] = (model, stamp, [])
     return cached[2]
 
 
@@ -134,12 +148,13 @@ def _spread(values: np.ndarray, stiff: np.ndarray) -> np.ndarray:
 
 
 def _step_constants(drive: Drive, h: float) -> _StepConstants:
-    """The integrator's constants for ``drive`` at step ``h`` (s), cached on the drive
-    (recomputed if any motor constant or gain changes)."""
+    """The integrator's constants for ``drive`` at step ``h`` (s), kept for the drive
+    (recomputed if any motor constant or gain changes, or ``h``)."""
     arrays = (drive.R, drive.L, drive.emf_per_rad_s, drive.torque_per_amp, drive.damping,
               drive.kp_vec, drive.kd_vec, drive.v_max)
     key = (float(h), *(np.asarray(a, dtype=float).tobytes() for a in arrays))
-    cached = drive.__dict__.get("_mpd_step_constants")
+    cache = _cache(drive)
+    cached = cache.get("step")
     if cached is not None and cached.key == key:
         return cached
     inv_l = 1.0 / drive.L
@@ -157,7 +172,7 @@ def _step_constants(drive: Drive, h: float) -> _StepConstants:
     }
     consts = _StepConstants(key, stiff, bool(stiff.any()), bool(stiff.all()), drive.saturated,
                             {k: np.asarray(v, dtype=float) for k, v in joint.items()})
-    drive.__dict__["_mpd_step_constants"] = consts
+    cache["step"] = consts
     return consts
 
 

@@ -258,7 +258,8 @@ def rnea_with_derivative(
     may give two preallocated float64 (nv, B) arrays to write into.
 
     Each call re-reads the model (~0.2 ms) and records its plan (~1 ms): for
-    many calls on one model use :class:`BatchRneaDerivative`.
+    many calls on one model use :class:`BatchRneaDerivative` (as
+    :func:`mpd_pin.dynamics.tracking.feedforward_tables` does, one per drive).
     """
     return BatchRneaDerivative(model, chunk=chunk, threads=threads)(Q, V, A, Jerk, out=out)
 
@@ -282,8 +283,16 @@ class BatchRneaDerivative:
         self.threads = int(threads)
         self._plans: dict[int, list[_Plan]] = {}
 
+    #: Plan sizes kept (least recently used dropped first): small batches round their size
+    #: up to a multiple of 64, so a long-lived evaluator could otherwise collect up to 32
+    #: sizes of buffers (~6 MB each at 2048 Panda configurations).
+    MAX_PLAN_SIZES = 6
+
     def _get_plans(self, nb: int, workers: int) -> list[_Plan]:
-        plans = self._plans.setdefault(nb, [])
+        plans = self._plans.pop(nb, [])
+        self._plans[nb] = plans  # now the most recently used
+        while len(self._plans) > self.MAX_PLAN_SIZES:
+            del self._plans[next(iter(self._plans))]
         while len(plans) < workers:
             plans.append(_Plan(self._joints, self._a0, self.nv, nb))
         return plans[:workers]

@@ -11,10 +11,20 @@ stage derivatives are written in place, the accelerations straight into them by
 ``abaInParallel``; a stage computes V = sat(W − Kp q − Kd q̇). The rest-to-rest
 quintic edges of :mod:`mpd_pin.dynamics.simulate` and the non-stop motions of
 :mod:`mpd_pin.motion` are two ways of filling these tables; the integration is one.
+
+A batch has a fixed cost (the lazy planner runs many small ones), kept low the way
+Pinocchio keeps its Data: what depends only on the drive is made once and kept for the
+drive (:func:`_cache`) — the ``ModelPool`` (:func:`_pool`), the batched-RNEA evaluators
+with their recorded plans (:func:`_rnea_evaluators`), the per-joint integrator constants
+(:func:`_step_constants`) — and the RK4 loop reuses buffers and views made before it, in
+fewer and cheaper numpy calls per step than it once needed (docs/design.md §3e, measured by
+``bench/rk4_batch.py``). Every floating-point operation is the one it always was, in the
+same order: the energies are bit-identical (``tests/test_rk4_batch.py``).
 """
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,15 +36,42 @@ from .motor import Drive
 __all__ = ["feedforward_tables", "integrate_tables", "TrackedSeries"]
 
 
+#: What the integrator keeps per drive (see the module docstring), by drive: held outside
+#: the drive so that a copy of a drive (copy.deepcopy) never shares or copies it (a copied
+#: RNEA plan would no longer alias its own buffers), and freed with the drive.
+_CACHES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _cache(drive: Drive) -> dict:
+    cache = _CACHES.get(drive)
+    if cache is None:
+        cache = _CACHES[drive] = {}
+    return cache
+
+
 def _pool(drive: Drive, threads: int) -> pin.ModelPool:
-    """A ModelPool of the drive's (armature-carrying) model, cached on the drive."""
-    key = ("_mpd_pool", threads)
-    cached = drive.__dict__.get("_pool_cache")
-    if cached is None or cached[0] != key or cached[2] is not drive.model:
-        cached = (key, pin.ModelPool(drive.model, threads), drive.model)
-        drive.__dict__["_pool_cache"] = cached
+    """A ModelPool of the drive's (armature-carrying) model with ``threads`` Data, kept for
+    the drive (rebuilt if ``drive.model`` is replaced)."""
+    cache = _cache(drive)
+    cached = cache.get("pool")
+    if cached is None or cached[0] != threads or cached[2] is not drive.model:
+        cached = cache["pool"] = (threads, pin.ModelPool(drive.model, threads), drive.model)
     return cached[1]
 
+
+def _rnea_evaluators(drive: Drive) -> list:
+    """Idle :class:`~mpd_pin.dynamics.batch.BatchRneaDerivative` evaluators of the drive's
+    (armature-carrying) model, kept for the drive: reading the model and recording a plan
+    cost ~2 ms, once per drive instead of once per batch. Dropped when ``drive.model`` is
+    replaced or its armature or gravity change (an evaluator reads the model only once)."""
+    model = drive.model
+    stamp = (np.asarray(model.armature, dtype=float).tobytes(),
+             np.asarray(model.gravity.vector, dtype=float).tobytes())
+    cache = _cache(drive)
+    cached = cache.get("rnea")
+    if cached is None or cached[0] is not model or cached[1] != stamp:
+        cached = cache["rnea"] = (model, stamp, [])
+    return cached[2]
 
 
 def feedforward_tables(drive: Drive, Qr: np.ndarray, Vr: np.ndarray, Ar: np.ndarray,
@@ -45,13 +82,19 @@ def feedforward_tables(drive: Drive, Qr: np.ndarray, Vr: np.ndarray, Ar: np.ndar
     τ_ff = RNEA(q, q̇, q̈) + n²B q̇ (armature n²J in the model), i_ff = τ_ff/(n Kt),
     V_ff = R i_ff + L τ̇_ff/(n Kt) + n Ke q̇, τ̇_ff = d/dt RNEA + n²B q̈.
     """
-    from .batch import rnea_with_derivative
-
     nt, K, nq = Qr.shape
     flat = (nt * K, nq)
-    tau_r, dtau_r = rnea_with_derivative(
-        drive.model, Qr.reshape(flat).T, Vr.reshape(flat).T, Ar.reshape(flat).T, Jr.reshape(flat).T
+    free = _rnea_evaluators(drive)
+    try:
+        evaluate = free.pop()  # one evaluator per concurrent caller (their buffers are shared)
+    except IndexError:
+        from .batch import BatchRneaDerivative
+
+        evaluate = BatchRneaDerivative(drive.model)
+    tau_r, dtau_r = evaluate(
+        Qr.reshape(flat).T, Vr.reshape(flat).T, Ar.reshape(flat).T, Jr.reshape(flat).T
     )
+    free.append(evaluate)
     tau_ff = tau_r.T.reshape(nt, K, nq) + drive.damping * Vr
     dtau_ff = dtau_r.T.reshape(nt, K, nq) + drive.damping * Ar
     i_ff = tau_ff / drive.torque_per_amp
@@ -75,6 +118,64 @@ class TrackedSeries:
     net_energy_t: np.ndarray
 
 
+#: Batches of fewer motions than this run ``abaInParallel`` on one thread: waking a second
+#: OpenMP thread costs more than it saves on a few configurations (measured on the Panda,
+#: 2 cores: 3 vs 11 µs CPU per call for one configuration, 31 vs 40 µs for 16; wall time
+#: no better with 2 threads below 64 either). Results do not depend on the thread count.
+ABA_PARALLEL_MIN = 64
+
+
+@dataclass(frozen=True, eq=False)
+class _StepConstants:
+    """Per-drive constants of the integrator at one step ``h`` (docs/design.md §3e): per
+    joint, the very values the stage formulas always used (so results stay bit-identical).
+
+    ``stiff`` marks the joints with the exponential current update; its coefficients are
+    spread to all joints (0 on classical joints, whose values are never used)."""
+
+    key: tuple
+    stiff: np.ndarray  # (nq,) bool
+    any_stiff: bool
+    all_stiff: bool
+    saturate: bool
+    joint: dict  # name -> (nq,) per-joint constant (see _step_constants)
+
+
+def _spread(values: np.ndarray, stiff: np.ndarray) -> np.ndarray:
+    out = np.zeros(stiff.shape)
+    out[stiff] = values
+    return out
+
+
+def _step_constants(drive: Drive, h: float) -> _StepConstants:
+    """The integrator's constants for ``drive`` at step ``h`` (s), kept for the drive
+    (recomputed if any motor constant or gain changes, or ``h``)."""
+    arrays = (drive.R, drive.L, drive.emf_per_rad_s, drive.torque_per_amp, drive.damping,
+              drive.kp_vec, drive.kd_vec, drive.v_max)
+    key = (float(h), *(np.asarray(a, dtype=float).tobytes() for a in arrays))
+    cache = _cache(drive)
+    cached = cache.get("step")
+    if cached is not None and cached.key == key:
+        return cached
+    inv_l = 1.0 / drive.L
+    cs = current_step(drive, h)
+    stiff = cs.stiff.copy()
+    joint = {
+        "kp": drive.kp_vec, "kd": drive.kd_vec, "lo": -drive.v_max, "hi": drive.v_max,
+        "damp": drive.damping, "ktn": drive.torque_per_amp, "ke": drive.emf_per_rad_s,
+        "inv_l": inv_l, "r_l": drive.R * inv_l, "ke_l": drive.emf_per_rad_s * inv_l,
+        # the exponential current update (CurrentStep), 0 on classical joints
+        "decay_half": _spread(cs.decay_half, stiff), "decay": _spread(cs.decay, stiff),
+        "w0_half": _spread(cs.w0_half, stiff), "w0": _spread(cs.w0, stiff),
+        "wc_half": _spread(cs.wc_half, stiff), "wc": _spread(cs.wc, stiff),
+        "inv_l_stiff": _spread(cs.inv_L, stiff),
+    }
+    consts = _StepConstants(key, stiff, bool(stiff.any()), bool(stiff.all()), drive.saturated,
+                            {k: np.asarray(v, dtype=float) for k, v in joint.items()})
+    cache["step"] = consts
+    return consts
+
+
 @np.errstate(over="ignore", invalid="ignore")  # divergence is detected and reported below
 def integrate_tables(
     drive: Drive, Q0: np.ndarray, Q1: np.ndarray, W: np.ndarray, i0: np.ndarray,
@@ -90,18 +191,56 @@ def integrate_tables(
     :class:`~mpd_pin.dynamics.simulate.EdgeOutcomes` arrays (E⁺, E, end error, end
     velocity, peak torque), each (K, nq), and with ``record`` a :class:`TrackedSeries`.
     Each row is computed exactly as if alone (rows never mix; layout: module docstring).
+
+    Every stage evaluates, elementwise and with exactly these operations in this order
+    (docs/design.md §3c–§3e; any change of order would change the energies' last bits):
+
+        V  = sat((W_j − Kp q) − Kd q̇)
+        N  = (V − n Ke q̇) · (1/L)                  stiff joints: the stage current is
+        i  = (e^{cz} i₀ + w₀ N₀) + w_c N            the exponential update
+        τ  = n Kt i − n²B q̇,   q̈ = ABA(q, q̇, τ)
+        di = ((V · (1/L)) − (R/L) i) − (n Ke/L) q̇   classical joints
+        P  = V i,  P⁺ = max(P, 0)
+
+    Cheap in Python calls: the voltage of a state depends on (q, q̇) only, so it is
+    evaluated once per stage state and serves the stiff forcing N, the stage derivative
+    and (at a step's end) the next step's first stage; every constant is a full (K, nq)
+    array and every operand contiguous and of one shape, numpy's fast path, with products
+    of adjacent state rows (q, q̇ or q̇, i) by two constants in one call; buffers and views
+    are made once, before the loop; ``abaInParallel`` runs on one thread below
+    :data:`ABA_PARALLEL_MIN` motions.
     """
     K, nq = Q0.shape
     N = np.asarray(N, dtype=np.int64)
     n_max = int(N.max())
-    kp, kd, vmax = drive.kp_vec, drive.kd_vec, drive.v_max
+    c = _step_constants(drive, h)
     if pool is None:
         pool = _pool(drive, threads)
-    invL = 1.0 / drive.L
-    r_l, ke_l, ktn, damp = drive.R * invL, drive.emf_per_rad_s * invL, drive.torque_per_amp, (
-        drive.damping
-    )
-    saturate = drive.saturated
+    aba_threads = max(1, int(threads)) if K >= ABA_PARALLEL_MIN else 1
+    any_stiff, all_stiff, saturate, stiff = c.any_stiff, c.all_stiff, c.saturate, c.stiff
+    classical = not all_stiff
+
+    def full(*names: str) -> np.ndarray:
+        """The named per-joint constants as one contiguous (len(names), K, nq) array."""
+        out = np.empty((len(names), K, nq))
+        for row, name in zip(out, names, strict=True):
+            row[...] = c.joint[name]
+        return out
+
+    kpkd = full("kp", "kd")  # × (q, q̇)
+    dampktn = full("damp", "ktn")  # × (q̇, i)
+    lo, hi = full("lo", "hi")
+    kel_rl = full("ke_l", "r_l") if classical else None  # × (q̇, i)
+    inv_l = full("inv_l")[0] if classical else None
+    if any_stiff:
+        ke, inv_l_s, wc_half, wc, dec_half, dec, w0_half, w0 = full(
+            "ke", "inv_l_stiff", "wc_half", "wc", "decay_half", "decay", "w0_half", "w0")
+    rows = 3 if classical else 2  # the stiff currents come from the exponential update
+    half_h = np.full((rows, K, nq), 0.5 * h)
+    step_h = np.full((rows, K, nq), h)
+    two = np.full((5, K, nq), 2.0)
+    weight = np.full((5, K, nq), h / 6.0)
+    zero = np.zeros((K, nq))
 
     X = np.zeros((5, K, nq))
     X[0] = Q0
@@ -109,45 +248,73 @@ def integrate_tables(
     Xs = np.zeros_like(X)
     k1, k2, k3, k4 = (np.empty_like(X) for _ in range(4))
     V = np.empty((K, nq))
-    trq = np.empty((K, nq))
+    qv_prod = np.empty((2, K, nq))  # (Kp q, Kd q̇)
+    vi_prod = np.empty((2, K, nq))  # (n²B q̇, n Kt i)
+    vi_prod2 = np.empty((2, K, nq))  # (n Ke/L q̇, R/L i)
     tmp = np.empty((K, nq))
+    trq = np.empty((K, nq))
+    nc = np.empty((K, nq))  # forcing N at the stage (stiff joints)
+    base_half, base_full, base_tmp = (np.empty((K, nq)) for _ in range(3))
+    i_new = np.empty((K, nq))
+    W_rows = list(W)
+    multiply, subtract, add = np.multiply, np.subtract, np.add
+    maximum, minimum, copyto, aba = np.maximum, np.minimum, np.copyto, pin.abaInParallel
+    trq_t = trq.T
 
-    def stage(j: int, x: np.ndarray, out: np.ndarray) -> None:
-        q, v, i = x[0], x[1], x[2]
-        np.multiply(q, kp, out=V)
-        np.subtract(W[j], V, out=V)
-        np.multiply(v, kd, out=tmp)
-        np.subtract(V, tmp, out=V)
+    def state_views(x: np.ndarray) -> tuple:
+        """(x, q̇, i, (q, q̇), (q̇, i), qᵀ, q̇ᵀ) of a state array, made once."""
+        return x, x[1], x[2], x[0:2], x[1:3], x[0].T, x[1].T
+
+    def derivative_views(k: np.ndarray) -> tuple:
+        """(q̇ row, q̈ row transposed for ABA, di/dt, P⁺, P rows) of a derivative array."""
+        return k[0], k[1].T, k[2], k[3], k[4]
+
+    qv_kp, qv_kd = qv_prod
+    vi_damp, vi_ktn = vi_prod
+    vi_kel, vi_rl = vi_prod2
+
+    def voltage(j: int, x: tuple) -> None:
+        """V at state ``x`` and grid row j; with stiff joints also their forcing N."""
+        multiply(x[3], kpkd, out=qv_prod)
+        subtract(W_rows[j], qv_kp, out=V)
+        subtract(V, qv_kd, out=V)
         if saturate:
-            np.clip(V, -vmax, vmax, out=V)
-        np.multiply(i, ktn, out=trq)
-        np.multiply(v, damp, out=tmp)
-        np.subtract(trq, tmp, out=trq)
-        pin.abaInParallel(threads, pool, q.T, v.T, trq.T, out[1].T)
-        np.copyto(out[0], v)
-        di = out[2]
-        np.multiply(V, invL, out=di)  # di/dt = (V − R i − n Ke q̇) / L
-        np.multiply(i, r_l, out=tmp)
-        di -= tmp
-        np.multiply(v, ke_l, out=tmp)
-        di -= tmp
-        np.multiply(V, i, out=out[4])
-        np.maximum(out[4], 0.0, out=out[3])
+            maximum(V, lo, out=V)
+            minimum(V, hi, out=V)
+        if any_stiff:
+            multiply(x[1], ke, out=nc)
+            subtract(V, nc, out=nc)
+            multiply(nc, inv_l_s, out=nc)
 
-    xs, x3 = Xs[:3], X[:3]
-    w = h / 6.0
-    cs = current_step(drive, h)
-    sj = np.flatnonzero(cs.stiff)
-    kp_s, kd_s, ke_s = kp[sj], kd[sj], drive.emf_per_rad_s[sj]
-    vmax_s = vmax[sj] if saturate else None
+    def current(x: tuple, wgt: np.ndarray, base: np.ndarray) -> None:
+        """The stiff joints' stage current (e^{cz} i₀ + w₀ N₀) + w_c N, into x's i row."""
+        multiply(nc, wgt, out=tmp)
+        if all_stiff:
+            add(base, tmp, out=x[2])
+        else:
+            add(base, tmp, out=i_new)
+            copyto(x[2], i_new, where=stiff)
 
-    def forcing(j: int, x: np.ndarray) -> np.ndarray:
-        """N = (V − n Ke q̇)/L (A/s) of the stiff joints at stage state ``x``, (K, s)."""
-        q, v = x[0][:, sj], x[1][:, sj]
-        Vs = W[j][:, sj] - kp_s * q - kd_s * v
-        if saturate:
-            np.clip(Vs, -vmax_s, vmax_s, out=Vs)
-        return (Vs - ke_s * v) * cs.inv_L
+    def derivative(x: tuple, k: tuple) -> None:
+        """The stage derivative [q̇, q̈, di/dt, P⁺, P] at ``x`` (V already evaluated)."""
+        multiply(x[4], dampktn, out=vi_prod)
+        subtract(vi_ktn, vi_damp, out=trq)  # n Kt i − n²B q̇
+        aba(aba_threads, pool, x[5], x[6], trq_t, k[1])
+        copyto(k[0], x[1])
+        if classical:  # di/dt = ((V/L) − (R/L) i) − (n Ke/L) q̇
+            kdi = k[2]
+            multiply(x[4], kel_rl, out=vi_prod2)
+            multiply(V, inv_l, out=kdi)
+            subtract(kdi, vi_rl, out=kdi)
+            subtract(kdi, vi_kel, out=kdi)
+        multiply(V, x[2], out=k[4])
+        maximum(k[4], zero, out=k[3])
+
+    xr, xsr = X[:rows], Xs[:rows]
+    k1r, k2r, k3r = k1[:rows], k2[:rows], k3[:rows]
+    i_now = X[2]
+    sx, ss = state_views(X), state_views(Xs)
+    kv1, kv2, kv3, kv4 = (derivative_views(k) for k in (k1, k2, k3, k4))
 
     peak_i = np.abs(X[2])
     rec = None
@@ -155,44 +322,53 @@ def integrate_tables(
         rec = [np.empty((n_max + 1, K, nq)) for _ in range(6)]
     result = [np.empty((K, nq)) for _ in range(5)]
     ending = {int(n): np.flatnonzero(N == n) for n in np.unique(N)}
+    voltage(0, sx)
     for n in range(n_max):
         j = 2 * n
-        if cs.any:
-            i0, n0 = X[2][:, sj], forcing(j, X)
-        stage(j, X, k1)
+        if any_stiff:  # e^{cz} i(t) + w₀ N(t), with N(t) of this state (in nc)
+            multiply(i_now, dec_half, out=base_half)
+            multiply(nc, w0_half, out=base_tmp)
+            add(base_half, base_tmp, out=base_half)
+            multiply(i_now, dec, out=base_full)
+            multiply(nc, w0, out=base_tmp)
+            add(base_full, base_tmp, out=base_full)
+        derivative(sx, kv1)
         if rec is not None:
             _record(rec, n, X, V)
-        np.multiply(k1[:3], 0.5 * h, out=xs)
-        xs += x3
-        if cs.any:
-            Xs[2][:, sj] = cs.half(i0, n0, forcing(j + 1, Xs))
-        stage(j + 1, Xs, k2)
-        np.multiply(k2[:3], 0.5 * h, out=xs)
-        xs += x3
-        if cs.any:
-            Xs[2][:, sj] = cs.half(i0, n0, forcing(j + 1, Xs))
-        stage(j + 1, Xs, k3)
-        np.multiply(k3[:3], h, out=xs)
-        xs += x3
-        if cs.any:
-            Xs[2][:, sj] = cs.full(i0, n0, forcing(j + 2, Xs))
-        stage(j + 2, Xs, k4)
-        k2 += k3
-        k2 *= 2.0
-        k2 += k1
-        k2 += k4
-        k2 *= w
-        X += k2
-        if cs.any:
-            X[2][:, sj] = cs.full(i0, n0, forcing(j + 2, X))
-        np.abs(X[2], out=tmp)
-        np.maximum(peak_i, tmp, out=peak_i)
+        multiply(k1r, half_h, out=xsr)
+        add(xsr, xr, out=xsr)
+        voltage(j + 1, ss)
+        if any_stiff:
+            current(ss, wc_half, base_half)
+        derivative(ss, kv2)
+        multiply(k2r, half_h, out=xsr)
+        add(xsr, xr, out=xsr)
+        voltage(j + 1, ss)
+        if any_stiff:
+            current(ss, wc_half, base_half)
+        derivative(ss, kv3)
+        multiply(k3r, step_h, out=xsr)
+        add(xsr, xr, out=xsr)
+        voltage(j + 2, ss)
+        if any_stiff:
+            current(ss, wc, base_full)
+        derivative(ss, kv4)
+        add(k2, k3, out=k2)  # X += h/6 · (((k2 + k3)·2 + k1) + k4)
+        multiply(k2, two, out=k2)
+        add(k2, k1, out=k2)
+        add(k2, k4, out=k2)
+        multiply(k2, weight, out=k2)
+        add(X, k2, out=X)
+        voltage(j + 2, sx)  # the end state: also the next step's first stage
+        if any_stiff:
+            current(sx, wc, base_full)
+        np.abs(i_now, out=tmp)
+        maximum(peak_i, tmp, out=peak_i)
         idx = ending.get(n + 1)
         if idx is not None:
             for arr, now in zip(result, (X[3], X[4], X[0] - Q1, X[1], peak_i), strict=True):
                 arr[idx] = now[idx]
-    if rec is not None:  # the last sample and its voltage
-        stage(2 * n_max, X, k1)
+    if rec is not None:  # the last sample and its voltage (V is that of (2 n_max, X))
         _record(rec, n_max, X, V)
     return _finish(result, rec, drive.torque_per_amp)
 

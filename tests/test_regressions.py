@@ -480,3 +480,25 @@ def test_ctrl_c_during_a_lazy_search_keeps_what_was_simulated(tmp_path, monkeypa
     res = plan_path(scn, again)
     assert res.path == ref.path and float(res.energy.sum()) == float(ref.energy.sum())
     assert again.lazy.count.simulated == total - before
+
+
+def test_partial_chunks_of_other_inputs_are_not_reused(tmp_path):
+    """A finished chunk in <cache>.partial/ is reused only for the very edges it was
+    simulated for: with the same key but other inputs (another duration on one of its
+    rows) it is deleted, not loaded (the inputs digest of planning/resume.py)."""
+    from mpd_pin.planning.resume import PartialCosts, partial_dir
+
+    rng = np.random.default_rng(3)
+    Q0, Q1 = rng.uniform(-1, 1, (6, 3)), rng.uniform(-1, 1, (6, 3))
+    T = np.full(6, 1.0)
+    rows = np.array([1, 2, 3])
+    res = EdgeOutcomes(*(rng.uniform(0, 1, (3, 3)) for _ in range(5)))
+    PartialCosts(tmp_path / "rm.npz", "k", Q0, Q1, T).add(rows, res)
+    same = PartialCosts(tmp_path / "rm.npz", "k", Q0, Q1, T).load()
+    assert same is not None and same[0].tolist() == [False, True, True, True, False, False]
+    np.testing.assert_array_equal(same[1].energy[rows], res.energy)
+    T2 = T.copy()
+    T2[2] = 1.5  # one of the chunk's rows now has another duration
+    other = PartialCosts(tmp_path / "rm.npz", "k", Q0, Q1, T2)
+    assert other.load() is None and other.chunks_reused == 0
+    assert not list(partial_dir(tmp_path / "rm.npz").glob("chunk-*.npz"))

@@ -26,6 +26,7 @@ from dataclasses import replace
 import numpy as np
 
 import mpd_pin as mp
+from common import TARGETS, target
 from mpd_pin.app.kinds import load_scenario
 from mpd_pin.app.plan import prepare
 from mpd_pin.dynamics.bound import EnergyBound
@@ -35,13 +36,6 @@ from mpd_pin.planning.roadmap import feasibility
 from mpd_pin.search import Graph, MPDStarLite
 
 SIZED = ("quickstart", "ur5", "panda-sized")
-TARGETS: list[str] = []
-
-
-def target(what: str, ok: bool, detail: str) -> None:
-    line = f"target {'MET' if ok else 'MISSED'}: {what} ({detail})"
-    TARGETS.append(line)
-    print("   " + line)
 
 
 def scenario(name: str, num_nodes: int | None = None):
@@ -51,7 +45,8 @@ def scenario(name: str, num_nodes: int | None = None):
         scn = replace(scn, motor=mp.sized_motors(scn.arm))
     if num_nodes is not None:
         scn = replace(scn, options=replace(scn.options, num_nodes=num_nodes))
-    return replace(scn, evaluation="lazy")
+    # every edge collision-checked first: the eager reference simulates every edge
+    return replace(scn, evaluation="lazy", collision="eager")
 
 
 def bounds(drive, opts) -> dict[str, EnergyBound]:

@@ -22,6 +22,17 @@ T = TypeVar("T")
 TABLE6_FILE = Path(__file__).resolve().parent.parent / "notebooks" / "paper000_table6.json"
 
 
+#: The "target MET/MISSED" lines a bench printed, for its summary at the end.
+TARGETS: list[str] = []
+
+
+def target(what: str, ok: bool, detail: str) -> None:
+    """Print (indented) and remember one target line: MET or MISSED, what, the numbers."""
+    line = f"target {'MET' if ok else 'MISSED'}: {what} ({detail})"
+    TARGETS.append(line)
+    print("   " + line)
+
+
 def best_of(fn: Callable[[], T], repeats: int = 3) -> tuple[float, T]:
     """Smallest wall time (s) of ``repeats`` calls of ``fn()``, and the fastest call's result.
 

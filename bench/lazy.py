@@ -29,21 +29,13 @@ import networkx as nx
 import numpy as np
 from scipy.spatial import cKDTree
 
-from common import random_geometric_arrays
+from common import TARGETS, random_geometric_arrays, target
 from mpd_pin.app.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
 from mpd_pin.collision import CollisionChecker
 from mpd_pin.dynamics import EnergyCost
 from mpd_pin.planning.lazy import LazyEdges, lazy_plan
 from mpd_pin.planning.roadmap import build_roadmap
 from mpd_pin.search import Graph, MPDStarLite
-
-TARGETS: list[str] = []
-
-
-def target(what: str, ok: bool, detail: str) -> None:
-    line = f"target {'MET' if ok else 'MISSED'}: {what} ({detail})"
-    TARGETS.append(line)
-    print("   " + line)
 
 
 # ------------------------------------------------------------------ section 1

@@ -603,9 +603,16 @@ def test_ctrl_c_interrupts_a_real_run(tmp_path):
     import sys
 
     out = tmp_path / "o"
-    proc = subprocess.Popen([sys.executable, "-m", "mpd_pin", "run", "case1", "--out",
-                             str(out), "--no-replay"], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE)
+    # The child starts as from a terminal even when this process ignores SIGINT (a
+    # background job of a script: an ignored signal stays ignored across exec, a handler
+    # does not), so that Python installs its KeyboardInterrupt handler there.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "mpd_pin", "run", "case1", "--out",
+                                 str(out), "--no-replay"], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     try:
         ready, _, _ = select.select([proc.stderr], [], [], 300)
         assert ready, "no progress output within 300 s"

@@ -322,8 +322,13 @@ class CostView:
 
     def planner(self, planner_cls, start: int, goal: int, *, focused: bool = True) -> Planner:
         """A planner on the current costs, focused by :meth:`heuristic` from ``start``
-        when ``focused`` (:meth:`settle` rebuilds it after the bounds are rescaled)."""
-        h = self.heuristic(start) if focused else None
+        when ``focused`` and the planner takes one — not Dijkstra (:meth:`settle` rebuilds it
+        after the bounds are rescaled)."""
+        from ..search import Dijkstra
+
+        # Dijkstra is the unfocused search by definition (a heuristic makes it A*)
+        use = focused and not issubclass(planner_cls, Dijkstra)
+        h = self.heuristic(start) if use else None
         return planner_cls(self.graph(), start, goal, heuristic=h)
 
     def _push(self, planner: Planner, ids: np.ndarray) -> None:

@@ -232,6 +232,7 @@ def integrate_tables(
     lo, hi = full("lo", "hi")
     kel_rl = full("ke_l", "r_l") if classical else None  # × (q̇, i)
     inv_l = full("inv_l")[0] if classical else None
+    wc_half = wc = None  # the stiff joints' stage weights (none without stiff joints)
     if any_stiff:
         ke, inv_l_s, wc_half, wc, dec_half, dec, w0_half, w0 = full(
             "ke", "inv_l_stiff", "wc_half", "wc", "decay_half", "decay", "w0_half", "w0")
@@ -310,6 +311,16 @@ def integrate_tables(
         multiply(V, x[2], out=k[4])
         maximum(k[4], zero, out=k[3])
 
+    def stage(k_prev: np.ndarray, step: np.ndarray, j: int, wgt, base, k: tuple) -> None:
+        """One RK4 stage: Xs = X + step·k_prev (the integrated rows), its voltage at grid
+        row j, the stiff currents (weight ``wgt`` on ``base``), its derivative into k."""
+        multiply(k_prev, step, out=xsr)
+        add(xsr, xr, out=xsr)
+        voltage(j, ss)
+        if any_stiff:
+            current(ss, wgt, base)
+        derivative(ss, k)
+
     xr, xsr = X[:rows], Xs[:rows]
     k1r, k2r, k3r = k1[:rows], k2[:rows], k3[:rows]
     i_now = X[2]
@@ -335,24 +346,9 @@ def integrate_tables(
         derivative(sx, kv1)
         if rec is not None:
             _record(rec, n, X, V)
-        multiply(k1r, half_h, out=xsr)
-        add(xsr, xr, out=xsr)
-        voltage(j + 1, ss)
-        if any_stiff:
-            current(ss, wc_half, base_half)
-        derivative(ss, kv2)
-        multiply(k2r, half_h, out=xsr)
-        add(xsr, xr, out=xsr)
-        voltage(j + 1, ss)
-        if any_stiff:
-            current(ss, wc_half, base_half)
-        derivative(ss, kv3)
-        multiply(k3r, step_h, out=xsr)
-        add(xsr, xr, out=xsr)
-        voltage(j + 2, ss)
-        if any_stiff:
-            current(ss, wc, base_full)
-        derivative(ss, kv4)
+        stage(k1r, half_h, j + 1, wc_half, base_half, kv2)
+        stage(k2r, half_h, j + 1, wc_half, base_half, kv3)
+        stage(k3r, step_h, j + 2, wc, base_full, kv4)
         add(k2, k3, out=k2)  # X += h/6 · (((k2 + k3)·2 + k1) + k4)
         multiply(k2, two, out=k2)
         add(k2, k1, out=k2)

@@ -378,7 +378,7 @@ def test_out_is_an_existing_file(tmp_path):
     [
         # an unknown frame for the IK of goal_ee: the key and the frame named
         ('start = [0.3, 0.2]\n    goal_ee = [0.5, 0.3]\n    ee_frame = "nosuch"',
-         "task.goal_ee: arm 'planar_2link' has no frame 'nosuch'"),
+         "task.ee_frame: arm 'planar_2link' has no frame 'nosuch'"),
         # ee_frame without start_ee/goal_ee is never read: an unknown key
         ('start = [0.3, 0.2]\n    goal = [1.2, -0.4]\n    ee_frame = "ee"',
          "task: unknown key(s) 'ee_frame'"),

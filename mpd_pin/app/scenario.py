@@ -444,6 +444,13 @@ def _endpoint(t: Table, key: str, arm: Arm, world: World, ik_seed: int) -> np.nd
     if len(target) == 2:
         target = [target[0], 0.0, target[1]]
     frame = t.string("ee_frame", "ee" if arm.model.existFrame("ee") else arm.model.frames[-1].name)
+    if not arm.model.existFrame(frame):
+        import difflib
+
+        names = [f.name for f in arm.model.frames]
+        near = difflib.get_close_matches(frame, names, n=1)
+        hint = f"; did you mean {near[0]!r}?" if near else f" (frames: {', '.join(names)})"
+        raise ConfigError(f"{t.path}.ee_frame: arm {arm.name!r} has no frame {frame!r}{hint}")
     choice = _ik_choice(t, key, arm)
     try:
         return solve_position_ik(arm, frame, np.array(target), world=world, seed=ik_seed,

@@ -46,9 +46,10 @@ __all__ = [
     "run_chunks",
 ]
 
-#: Edges per task sent to workers. Measured (bench/cluster.py, docs/design.md §4h): a batch
-#: of the integrator costs ~28 ms plus ~2 ms per planar 3-link edge (1 thread), so 512
-#: edges keep the fixed part near 5 % and 32-64-edge chunks run at 0.3x the speed.
+#: Edges per task sent to workers. Chosen when a batch of the integrator cost ~28 ms plus
+#: ~2 ms per planar 3-link edge (1 thread; bench/cluster.py, docs/design.md §4h): 512 edges
+#: kept the fixed part near 5 %. Since the RK4 rewrite (§3e) the fixed part is ~8 ms, so
+#: smaller chunks would cost less than measured then; the size was not re-tuned.
 DEFAULT_CHUNK_SIZE = 512
 #: Edges per chunk in this process (the integrator's own batch: no extra batches).
 IN_PROCESS_CHUNK_SIZE = 1024

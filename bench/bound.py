@@ -26,7 +26,7 @@ from dataclasses import replace
 import numpy as np
 
 import mpd_pin as mp
-from common import TARGETS, target
+from common import summary, target
 from mpd_pin.app.kinds import load_scenario
 from mpd_pin.app.plan import prepare
 from mpd_pin.dynamics.bound import EnergyBound
@@ -153,10 +153,7 @@ def main() -> None:
     t0 = time.perf_counter()
     section_tightness(names, args.edges)
     section_lazy([n for n in names if n in (*SIZED, "case1")], args.large)
-    print("\n== Summary ==")
-    for line in TARGETS:
-        print("   " + line)
-    print(f"\ntotal {time.perf_counter() - t0:.1f} s")
+    summary(t0)
 
 
 if __name__ == "__main__":

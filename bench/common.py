@@ -33,6 +33,15 @@ def target(what: str, ok: bool, detail: str) -> None:
     print("   " + line)
 
 
+def summary(t0: float) -> None:
+    """Print every target line again and the bench's total seconds since ``t0``
+    (``time.perf_counter``)."""
+    print("\n== Summary ==")
+    for line in TARGETS:
+        print("   " + line)
+    print(f"\ntotal {time.perf_counter() - t0:.1f} s")
+
+
 def best_of(fn: Callable[[], T], repeats: int = 3) -> tuple[float, T]:
     """Smallest wall time (s) of ``repeats`` calls of ``fn()``, and the fastest call's result.
 

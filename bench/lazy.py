@@ -29,7 +29,7 @@ import networkx as nx
 import numpy as np
 from scipy.spatial import cKDTree
 
-from common import TARGETS, random_geometric_arrays, target
+from common import random_geometric_arrays, summary, target
 from mpd_pin.app.scenario import builtin_scenarios, load_scenario_data, parse_energy_scenario
 from mpd_pin.collision import CollisionChecker
 from mpd_pin.dynamics import EnergyCost
@@ -196,10 +196,7 @@ def main() -> None:
     t0 = time.perf_counter()
     section_roadmaps(args.skip_panda)
     section_repair(args.repeats)
-    print("\n== Summary ==")
-    for line in TARGETS:
-        print("   " + line)
-    print(f"\ntotal {time.perf_counter() - t0:.1f} s")
+    summary(t0)
 
 
 if __name__ == "__main__":

@@ -88,7 +88,7 @@ class _TableCost:
         e = np.array([[self.true[(int(a), int(b))]] for a, b in zip(Q0[:, 0], Q1[:, 0],
                                                                      strict=True)])
         z = np.zeros_like(e)
-        return EdgeOutcomes(e, e, z, z, z)
+        return EdgeOutcomes(e, e, z, z, z, np.zeros((len(e), 2)))
 
 
 def _random_lazy(seed, n=120, p=0.06, overestimate=None):

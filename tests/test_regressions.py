@@ -47,7 +47,7 @@ class _KnownCost:
         e = np.array([[self.true[(int(a), int(b))]] for a, b in zip(Q0[:, 0], Q1[:, 0],
                                                                      strict=True)])
         zero = np.zeros_like(e)
-        return EdgeOutcomes(e, e, zero, zero, zero)
+        return EdgeOutcomes(e, e, zero, zero, zero, np.zeros((len(e), 2)))
 
 
 def _synthetic(seed: int, ratio: tuple[float, float], n: int = 120, p: float = 0.06):
@@ -492,7 +492,7 @@ def test_partial_chunks_of_other_inputs_are_not_reused(tmp_path):
     Q0, Q1 = rng.uniform(-1, 1, (6, 3)), rng.uniform(-1, 1, (6, 3))
     T = np.full(6, 1.0)
     rows = np.array([1, 2, 3])
-    res = EdgeOutcomes(*(rng.uniform(0, 1, (3, 3)) for _ in range(5)))
+    res = EdgeOutcomes(*(rng.uniform(0, 1, (3, 3)) for _ in range(5)), rng.uniform(0, 1, (3, 2)))
     PartialCosts(tmp_path / "rm.npz", "k", Q0, Q1, T).add(rows, res)
     same = PartialCosts(tmp_path / "rm.npz", "k", Q0, Q1, T).load()
     assert same is not None and same[0].tolist() == [False, True, True, True, False, False]

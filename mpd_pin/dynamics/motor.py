@@ -18,6 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..arm.model import Arm
+from .supply import PER_JOINT, Supply
 
 __all__ = ["DCMotor", "PAPER_MOTOR", "SERVO_MOTOR", "Drive"]
 
@@ -104,6 +105,8 @@ class Drive:
     kp: proportional gain (V/rad), scalar or per joint, ≥ 0.
     kd: derivative gain (V·s/rad), scalar or per joint, ≥ 0.
     feedforward: add the model-based voltage V_ff (else V_ff = 0).
+    supply: how the drives are fed (:class:`~mpd_pin.Supply`; default: one supply per
+        joint, no regeneration, paper 000). It prices the motion, it does not change it.
 
     Per-joint motor constants are exposed as arrays ``R, L, Kt, Ke, B, J, n,
     v_max`` (``inf`` where unsaturated). ``model`` is a copy of the arm's model
@@ -115,6 +118,7 @@ class Drive:
     kp: float | Sequence[float]
     kd: float | Sequence[float]
     feedforward: bool = True
+    supply: Supply = PER_JOINT
     model: pin.Model = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -136,6 +140,8 @@ class Drive:
         self.kp_vec = _per_joint(self.kp, nq, "kp")
         self.kd_vec = _per_joint(self.kd, nq, "kd")
         self.feedforward = bool(self.feedforward)
+        if not isinstance(self.supply, Supply):
+            raise ValueError(f"supply must be a mpd_pin.Supply, got {self.supply!r}")
         # Joint-side quantities.
         self.armature = self.n**2 * self.J  # reflected rotor inertia (kg·m²)
         self.damping = self.n**2 * self.B  # reflected viscous friction (N·m·s/rad)
@@ -165,4 +171,4 @@ class Drive:
             "kp": self.kp_vec.tolist(),
             "kd": self.kd_vec.tolist(),
             "feedforward": self.feedforward,
-        }
+        } | ({} if self.supply.is_default else {"supply": self.supply.describe()})

@@ -9,9 +9,10 @@ tracks a quintic rest-to-rest reference ``q_ref = q⁰ + (q¹ − q⁰) s(t/T)``
 ``s(τ) = 10τ³ − 15τ⁴ + 6τ⁵``, under the voltage controller of
 :class:`mpd_pin.Drive`. Classic fixed-step RK4 integrates it together with the
 energies ``E⁺ = ∫ max(V i, 0) dt`` (the edge cost, no regeneration) and
-``E = ∫ V i dt`` (net). The controller is evaluated as a continuous function of
-(t, x) inside every RK4 stage, so the feed-forward is needed at the half-step
-grid ``t = j·dt/2``.
+``E = ∫ V i dt`` (net), and the shared bus's ``B⁺ = ∫ max(P, 0) dt`` and
+``B⁻ = ∫ max(−P, 0) dt`` with ``P = Σ_k V_k i_k`` (docs/design.md §3h). The
+controller is evaluated as a continuous function of (t, x) inside every RK4
+stage, so the feed-forward is needed at the half-step grid ``t = j·dt/2``.
 
 * :func:`simulate_edge` — one edge, the reference implementation: D from CRBA,
   C and G from Pinocchio, a linear solve per stage; returns the time series.
@@ -34,6 +35,7 @@ import pinocchio as pin
 
 from .current import current_step
 from .motor import Drive
+from .supply import PER_JOINT, Supply, supply_energy
 from .tracking import _pool, feedforward_tables, integrate_tables
 
 __all__ = [
@@ -151,7 +153,10 @@ class EdgeSimulation:
     t (s), q (rad), v (rad/s), i (A), V (V) with shape (N+1, nq) (t: (N+1,));
     energy = E⁺ per joint (J), net_energy = E per joint (J);
     energy_t, net_energy_t: the cumulative integrals at each sample (J);
-    q_ref: the reference at each sample (rad).
+    q_ref: the reference at each sample (rad);
+    bus_energy: [B⁺, B⁻] = [∫ max(P, 0), ∫ max(−P, 0)] of the bus power P = Σ_k V_k i_k
+    (J), bus_energy_t their cumulative values (N+1, 2); supply: the drive's
+    :class:`~mpd_pin.Supply`, which :attr:`supply_energy` applies.
     """
 
     t: np.ndarray
@@ -164,11 +169,25 @@ class EdgeSimulation:
     net_energy: np.ndarray
     energy_t: np.ndarray
     net_energy_t: np.ndarray
+    bus_energy: np.ndarray
+    bus_energy_t: np.ndarray
+    supply: Supply = PER_JOINT
 
     @property
     def total_energy(self) -> float:
-        """Σ E⁺ over joints (J): the edge cost."""
+        """Σ E⁺ over joints (J): the edge cost with a supply per joint (paper 000)."""
         return float(self.energy.sum())
+
+    @property
+    def supply_energy(self) -> float:
+        """Energy drawn from the supply (J) under :attr:`supply` (docs/design.md §3h):
+        Σ E⁺ per joint, or B⁺ − η B⁻ on a shared bus. The planner's edge cost."""
+        return float(supply_energy(self.supply, self.energy, self.bus_energy))
+
+    @property
+    def P_bus(self) -> np.ndarray:
+        """Bus power P = Σ_k V_k i_k (W) at each sample, (N+1,)."""
+        return (self.V * self.i).sum(axis=1)
 
 
 def _check_edge(drive: Drive, q0, q1) -> tuple[np.ndarray, np.ndarray]:
@@ -222,10 +241,12 @@ def simulate_edge(drive: Drive, q0, q1, duration: float = 1.0, dt: float = 5e-3)
         a = np.linalg.solve(D, rhs)
         di = (V - Rm * i - ken * v) / Lm
         P = V * i
-        return np.concatenate([v, a, di, np.maximum(P, 0.0), P]), V
+        Pb = P.sum()
+        return np.concatenate([v, a, di, np.maximum(P, 0.0), P,
+                               [max(Pb, 0.0), max(-Pb, 0.0)]]), V
 
-    x = np.concatenate([q0, np.zeros(nq), arm.gravity(q0) / ktn, np.zeros(2 * nq)])
-    X = np.empty((N + 1, 5 * nq))
+    x = np.concatenate([q0, np.zeros(nq), arm.gravity(q0) / ktn, np.zeros(2 * nq + 2)])
+    X = np.empty((N + 1, 5 * nq + 2))
     Vs = np.empty((N + 1, nq))
     X[0] = x
     cs = current_step(drive, h)
@@ -278,9 +299,12 @@ def simulate_edge(drive: Drive, q0, q1, duration: float = 1.0, dt: float = 5e-3)
         V=Vs,
         q_ref=q0 + np.outer(s[::2], dq),
         energy=X[N, 3 * nq : 4 * nq].copy(),
-        net_energy=X[N, 4 * nq :].copy(),
+        net_energy=X[N, 4 * nq : 5 * nq].copy(),
         energy_t=X[:, 3 * nq : 4 * nq].copy(),
-        net_energy_t=X[:, 4 * nq :].copy(),
+        net_energy_t=X[:, 4 * nq : 5 * nq].copy(),
+        bus_energy=X[N, 5 * nq :].copy(),
+        bus_energy_t=X[:, 5 * nq :].copy(),
+        supply=drive.supply,
     )
 
 
@@ -364,7 +388,8 @@ class EdgeOutcomes:
     end_velocity: q̇(T) (rad/s); peak_torque: max over the RK4 step points of the motor
     torque at the joint, |n Kt i| (N·m). The feasibility rules of docs/design.md §3g read
     the last three: a motion that does not arrive, or needs more torque than the joint
-    may take, is not an edge.
+    may take, is not an edge. bus_energy (K, 2): [B⁺, B⁻] of the shared bus (J,
+    docs/design.md §3h).
     """
 
     energy: np.ndarray
@@ -372,6 +397,22 @@ class EdgeOutcomes:
     end_error: np.ndarray
     end_velocity: np.ndarray
     peak_torque: np.ndarray
+    bus_energy: np.ndarray
+
+    @staticmethod
+    def zeros(K: int, nq: int) -> EdgeOutcomes:
+        """Outcomes of K edges, all 0 (to be filled row by row)."""
+        return EdgeOutcomes(*(np.zeros((K, _columns(f, nq))) for f in _OUTCOME_FIELDS))
+
+
+#: The fields of :class:`EdgeOutcomes`, in order.
+_OUTCOME_FIELDS = ("energy", "net_energy", "end_error", "end_velocity", "peak_torque",
+                   "bus_energy")
+
+
+def _columns(name: str, nq: int) -> int:
+    """Columns of an :class:`EdgeOutcomes` field: 2 for ``bus_energy``, else nq."""
+    return 2 if name == "bus_energy" else nq
 
 
 def edge_outcomes(
@@ -398,7 +439,7 @@ def edge_outcomes(
         raise ValueError(
             f"duration must be a scalar or one value per edge ({K}), got shape {durations.shape}"
         )
-    out = [np.zeros((K, drive.nq)) for _ in range(5)]
+    out = [np.zeros((K, _columns(f, drive.nq))) for f in _OUTCOME_FIELDS]
     steps = np.array([step_count(T, dt) for T in durations.tolist()], dtype=np.int64)
     # Edges with the same step h = T/N (bit for bit) run together, shortest first, in
     # chunks of at most ``chunk`` edges whose tables (nt × K × nq) stay within the budget.

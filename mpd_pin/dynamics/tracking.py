@@ -6,7 +6,9 @@ t = j·h/2 as tables (nt, K, nq) — q_ref, q̇_ref, q̈_ref, q⃛_ref — from 
 (τ_ff and τ̇_ff by RNEA and its derivative), and :func:`integrate_tables` integrates
 the motor-augmented ODE with classic RK4 through ``pin.abaInParallel``. The state of
 all motions is one preallocated array X = [q, q̇, i, E⁺, E] of shape (5, K, nq) (each
-row block C-contiguous, so its transpose is the (nq, K) Fortran array Pinocchio wants);
+row block C-contiguous, so its transpose is the (nq, K) Fortran array Pinocchio wants),
+and the shared bus's B = [B⁺, B⁻] = [∫ max(P, 0), ∫ max(−P, 0)], P = Σ_k V_k i_k, of shape
+(2, K) (docs/design.md §3h);
 stage derivatives are written in place, the accelerations straight into them by
 ``abaInParallel``; a stage computes V = sat(W − Kp q − Kd q̇). The rest-to-rest
 quintic edges of :mod:`mpd_pin.dynamics.simulate` and the non-stop motions of
@@ -107,7 +109,8 @@ class TrackedSeries:
     """The time series of one batch, recorded at every RK4 step point (N+1 samples).
 
     q (rad), v (rad/s), i (A), V (V), energy_t (cumulative E⁺ per joint, J),
-    net_energy_t (cumulative E, J): each (N+1, K, nq).
+    net_energy_t (cumulative E, J): each (N+1, K, nq); bus_energy_t (cumulative
+    [B⁺, B⁻] of the shared bus, J): (N+1, K, 2).
     """
 
     q: np.ndarray
@@ -116,6 +119,7 @@ class TrackedSeries:
     V: np.ndarray
     energy_t: np.ndarray
     net_energy_t: np.ndarray
+    bus_energy_t: np.ndarray
 
 
 #: Batches of fewer motions than this run ``abaInParallel`` on one thread: waking a second
@@ -189,8 +193,9 @@ def integrate_tables(
     V_ff + Kp q_ref + Kd q̇_ref (V), on the half-step grid (a row past its own N[k] steps
     holds its end); i0 (K, nq): initial currents (A). Returns the
     :class:`~mpd_pin.dynamics.simulate.EdgeOutcomes` arrays (E⁺, E, end error, end
-    velocity, peak torque), each (K, nq), and with ``record`` a :class:`TrackedSeries`.
-    Each row is computed exactly as if alone (rows never mix; layout: module docstring).
+    velocity, peak torque), each (K, nq), and the bus energies [B⁺, B⁻] (K, 2), and with
+    ``record`` a :class:`TrackedSeries`. Each row is computed exactly as if alone (rows
+    never mix; layout: module docstring).
 
     Every stage evaluates, elementwise and with exactly these operations in this order
     (docs/design.md §3c–§3e; any change of order would change the energies' last bits):
@@ -201,6 +206,7 @@ def integrate_tables(
         τ  = n Kt i − n²B q̇,   q̈ = ABA(q, q̇, τ)
         di = ((V · (1/L)) − (R/L) i) − (n Ke/L) q̇   classical joints
         P  = V i,  P⁺ = max(P, 0)
+        P_bus = Σ_k P,  B⁺' = max(P_bus, 0),  B⁻' = max(−P_bus, 0)   (the (2, K) states)
 
     Cheap in Python calls: the voltage of a state depends on (q, q̇) only, so it is
     evaluated once per stage state and serves the stiff forcing N, the stage derivative
@@ -242,12 +248,18 @@ def integrate_tables(
     two = np.full((5, K, nq), 2.0)
     weight = np.full((5, K, nq), h / 6.0)
     zero = np.zeros((K, nq))
+    zero_k = np.zeros(K)
+    weight_b = np.full((2, K), h / 6.0)
+    two_b = np.full((2, K), 2.0)
 
     X = np.zeros((5, K, nq))
     X[0] = Q0
     X[2] = i0
     Xs = np.zeros_like(X)
     k1, k2, k3, k4 = (np.empty_like(X) for _ in range(4))
+    B = np.zeros((2, K))  # [B⁺, B⁻] of the shared bus (J)
+    b1, b2, b3, b4 = (np.empty((2, K)) for _ in range(4))
+    p_bus = np.empty(K)
     V = np.empty((K, nq))
     qv_prod = np.empty((2, K, nq))  # (Kp q, Kd q̇)
     vi_prod = np.empty((2, K, nq))  # (n²B q̇, n Kt i)
@@ -266,9 +278,10 @@ def integrate_tables(
         """(x, q̇, i, (q, q̇), (q̇, i), qᵀ, q̇ᵀ) of a state array, made once."""
         return x, x[1], x[2], x[0:2], x[1:3], x[0].T, x[1].T
 
-    def derivative_views(k: np.ndarray) -> tuple:
-        """(q̇ row, q̈ row transposed for ABA, di/dt, P⁺, P rows) of a derivative array."""
-        return k[0], k[1].T, k[2], k[3], k[4]
+    def derivative_views(k: np.ndarray, kb: np.ndarray) -> tuple:
+        """(q̇ row, q̈ row transposed for ABA, di/dt, P⁺, P rows, B⁺', B⁻') of a derivative
+        array and its bus rows."""
+        return k[0], k[1].T, k[2], k[3], k[4], kb[0], kb[1]
 
     qv_kp, qv_kd = qv_prod
     vi_damp, vi_ktn = vi_prod
@@ -297,7 +310,8 @@ def integrate_tables(
             copyto(x[2], i_new, where=stiff)
 
     def derivative(x: tuple, k: tuple) -> None:
-        """The stage derivative [q̇, q̈, di/dt, P⁺, P] at ``x`` (V already evaluated)."""
+        """The stage derivative [q̇, q̈, di/dt, P⁺, P] and the bus's [max(P_bus, 0),
+        max(−P_bus, 0)] at ``x`` (V already evaluated)."""
         multiply(x[4], dampktn, out=vi_prod)
         subtract(vi_ktn, vi_damp, out=trq)  # n Kt i − n²B q̇
         aba(aba_threads, pool, x[5], x[6], trq_t, k[1])
@@ -310,6 +324,10 @@ def integrate_tables(
             subtract(kdi, vi_kel, out=kdi)
         multiply(V, x[2], out=k[4])
         maximum(k[4], zero, out=k[3])
+        np.sum(k[4], axis=1, out=p_bus)
+        maximum(p_bus, zero_k, out=k[5])
+        subtract(zero_k, p_bus, out=k[6])
+        maximum(k[6], zero_k, out=k[6])
 
     def stage(k_prev: np.ndarray, step: np.ndarray, j: int, wgt, base, k: tuple) -> None:
         """One RK4 stage: Xs = X + step·k_prev (the integrated rows), its voltage at grid
@@ -325,13 +343,15 @@ def integrate_tables(
     k1r, k2r, k3r = k1[:rows], k2[:rows], k3[:rows]
     i_now = X[2]
     sx, ss = state_views(X), state_views(Xs)
-    kv1, kv2, kv3, kv4 = (derivative_views(k) for k in (k1, k2, k3, k4))
+    kv1, kv2, kv3, kv4 = (derivative_views(k, kb) for k, kb in
+                          ((k1, b1), (k2, b2), (k3, b3), (k4, b4)))
 
     peak_i = np.abs(X[2])
     rec = None
     if record:
         rec = [np.empty((n_max + 1, K, nq)) for _ in range(6)]
-    result = [np.empty((K, nq)) for _ in range(5)]
+        rec.append(np.empty((n_max + 1, K, 2)))
+    result = [np.empty((K, nq)) for _ in range(5)] + [np.empty((K, 2))]
     ending = {int(n): np.flatnonzero(N == n) for n in np.unique(N)}
     voltage(0, sx)
     for n in range(n_max):
@@ -345,7 +365,7 @@ def integrate_tables(
             add(base_full, base_tmp, out=base_full)
         derivative(sx, kv1)
         if rec is not None:
-            _record(rec, n, X, V)
+            _record(rec, n, X, V, B)
         stage(k1r, half_h, j + 1, wc_half, base_half, kv2)
         stage(k2r, half_h, j + 1, wc_half, base_half, kv3)
         stage(k3r, step_h, j + 2, wc, base_full, kv4)
@@ -355,6 +375,12 @@ def integrate_tables(
         add(k2, k4, out=k2)
         multiply(k2, weight, out=k2)
         add(X, k2, out=X)
+        add(b2, b3, out=b2)  # the bus rows, the same way
+        multiply(b2, two_b, out=b2)
+        add(b2, b1, out=b2)
+        add(b2, b4, out=b2)
+        multiply(b2, weight_b, out=b2)
+        add(B, b2, out=B)
         voltage(j + 2, sx)  # the end state: also the next step's first stage
         if any_stiff:
             current(sx, wc, base_full)
@@ -362,10 +388,11 @@ def integrate_tables(
         maximum(peak_i, tmp, out=peak_i)
         idx = ending.get(n + 1)
         if idx is not None:
-            for arr, now in zip(result, (X[3], X[4], X[0] - Q1, X[1], peak_i), strict=True):
+            for arr, now in zip(result, (X[3], X[4], X[0] - Q1, X[1], peak_i, B.T),
+                                strict=True):
                 arr[idx] = now[idx]
     if rec is not None:  # the last sample and its voltage (V is that of (2 n_max, X))
-        _record(rec, n_max, X, V)
+        _record(rec, n_max, X, V, B)
     return _finish(result, rec, drive.torque_per_amp)
 
 
@@ -380,11 +407,13 @@ def _finish(result: list[np.ndarray], rec: list[np.ndarray] | None, torque_per_a
     return tuple(result)
 
 
-def _record(rec: list[np.ndarray], n: int, X: np.ndarray, V: np.ndarray) -> None:
+def _record(rec: list[np.ndarray], n: int, X: np.ndarray, V: np.ndarray,
+            B: np.ndarray) -> None:
     """Store sample n: the state of X before step n's update and the voltage of its first
     stage (V at the sample, as in :func:`~mpd_pin.dynamics.simulate.simulate_edge`)."""
     rec[0][n], rec[1][n], rec[2][n] = X[0], X[1], X[2]
     rec[3][n] = V
     rec[4][n], rec[5][n] = X[3], X[4]
+    rec[6][n] = B.T
 
 

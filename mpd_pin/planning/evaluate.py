@@ -80,7 +80,8 @@ def evaluate_edges(
     cost, roadmap: Roadmap, ids: np.ndarray, options: RoadmapOptions, progress=None,
 ) -> np.ndarray:
     """Simulate the roadmap edges ``ids`` (one batch through ``cost.outcomes``) and write
-    the E⁺ per joint (J) of the feasible ones into ``roadmap.energy``; the refused ones
+    the E⁺ per joint (J) of the feasible ones into ``roadmap.energy`` (and their bus
+    energies into ``roadmap.bus``); the refused ones
     stay NaN and are counted in ``roadmap.edge_counts``. Returns the (len(ids),) bool mask
     of the refused edges (docs/design.md §4e, §4g)."""
     ids = np.asarray(ids, dtype=np.int64)
@@ -108,6 +109,8 @@ def _enter(roadmap: Roadmap, ids: np.ndarray, out, options: RoadmapOptions,
     refused = over | missed
     energy = np.asarray(out.energy, float)
     roadmap.energy[ids[~refused]] = energy[~refused]
+    if roadmap.bus is not None:  # files from before the shared bus carry none (§3h)
+        roadmap.bus[ids[~refused]] = np.asarray(out.bus_energy, float)[~refused]
     counts = roadmap.edge_counts
     counts["refused_effort"] = counts.get("refused_effort", 0) + int(over.sum())
     counts["refused_arrival"] = counts.get("refused_arrival", 0) + int((missed & ~over).sum())

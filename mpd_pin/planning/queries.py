@@ -29,6 +29,7 @@ from .roadmap import (
     _free_pairs,
     _neighbour_pairs,
     _tqdm,
+    attach_supply,
 )
 
 __all__ = ["add_query", "SAME_NODE"]
@@ -77,6 +78,7 @@ def add_query(
         ids.append(found)
     src, dst = np.asarray(roadmap.src), np.asarray(roadmap.dst)
     durations, energy = np.asarray(roadmap.durations), np.asarray(roadmap.energy, float)
+    bus = None if roadmap.bus is None else np.asarray(roadmap.bus, float)
     counts = {k: int(roadmap.edge_counts.get(k, 0)) for k in EDGE_COUNTS}
     checked = roadmap.checked
     pairs_checked = 0
@@ -93,6 +95,8 @@ def add_query(
         src, dst = np.concatenate([src, new[0]]), np.concatenate([dst, new[1]])
         durations = np.concatenate([durations, new[2]])
         energy = np.concatenate([energy, np.asarray(new[3], float)])
+        if bus is not None:
+            bus = np.concatenate([bus, np.asarray(new[5], float)])
         for k in EDGE_COUNTS:
             counts[k] += int(new[4].get(k, 0))
         if not check_edges or checked is not None:
@@ -102,8 +106,10 @@ def add_query(
     digest.update(np.ascontiguousarray(nodes[n_old:], dtype=float).tobytes())
     digest.update(np.array(ids, dtype=np.int64).tobytes())
     timings = {"query_nodes": time.perf_counter() - t0}
-    return Roadmap(nodes=nodes, start=ids[0], goal=ids[1], src=src, dst=dst,
-                   durations=durations, energy=np.array(energy, dtype=float),
-                   key=digest.hexdigest(), timings=timings, edge_counts=counts,
-                   checked=None if checked is None else np.asarray(checked, dtype=bool),
-                   pairs_checked=pairs_checked)
+    extended = Roadmap(nodes=nodes, start=ids[0], goal=ids[1], src=src, dst=dst,
+                       durations=durations, energy=np.array(energy, dtype=float),
+                       key=digest.hexdigest(), timings=timings, edge_counts=counts,
+                       checked=None if checked is None else np.asarray(checked, dtype=bool),
+                       pairs_checked=pairs_checked,
+                       bus=None if bus is None else np.array(bus, dtype=float))
+    return attach_supply(extended, cost.drive)

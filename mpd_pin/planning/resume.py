@@ -22,12 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..dynamics.simulate import EdgeOutcomes
+from ..dynamics.simulate import EdgeOutcomes, _columns
 
 __all__ = ["PARTIAL_FORMAT", "PartialCosts", "atomic_savez", "partial_dir"]
 
 #: Format tag of a partial chunk file (never a roadmap's ROADMAP_FORMAT).
-PARTIAL_FORMAT = "mpd_pin.roadmap-partial-chunk/1"
+PARTIAL_FORMAT = "mpd_pin.roadmap-partial-chunk/2"  # 2: with bus_energy
 _FIELDS = tuple(f.name for f in fields(EdgeOutcomes))
 
 
@@ -88,7 +88,7 @@ class PartialCosts:
             return None
         K, nq = self.Q0.shape
         mask = np.zeros(K, dtype=bool)
-        out = {name: np.zeros((K, nq)) for name in _FIELDS}
+        out = {name: np.zeros((K, _columns(name, nq))) for name in _FIELDS}
         for f in sorted(self.dir.glob("chunk-*.npz")):
             data = self._read(f, K, nq)
             if data is None:
@@ -112,7 +112,8 @@ class PartialCosts:
         rows = data.get("rows")
         if (rows is None or rows.ndim != 1 or rows.dtype.kind not in "iu" or not rows.size
                 or rows.min() < 0 or rows.max() >= K
-                or any(data.get(n) is None or data[n].shape != (rows.size, nq) for n in _FIELDS)):
+                or any(data.get(n) is None or data[n].shape != (rows.size, _columns(n, nq))
+                       for n in _FIELDS)):
             return None
         if str(data.get("inputs", "")) != _inputs_digest(
                 self.Q0[rows], self.Q1[rows], self.T[rows]):

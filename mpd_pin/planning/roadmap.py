@@ -32,6 +32,7 @@ import numpy as np
 
 from ..arm.continuous import nearest_neighbours
 from ..dynamics.cost import EnergyCost
+from ..dynamics.supply import PER_JOINT, Supply, node_potential, supply_energy
 from ..search import Graph
 from .evaluate import certify_pairs, complete_checks, complete_roadmap, feasibility
 from .options import RoadmapOptions
@@ -61,6 +62,8 @@ class Roadmap:
     durations: (E,) seconds; energy: (E, nq) E⁺ per joint (J); cost = energy.sum(1).
     key: hash of everything that determined the roadmap (see :meth:`key_for`).
     timings: seconds per phase of the build.
+    bus, supply, potential: the shared-bus energies and how they are priced
+    (docs/design.md §3h); with the default supply the cost is the paper's Σ E⁺.
     """
 
     nodes: np.ndarray
@@ -83,6 +86,14 @@ class Roadmap:
     checked: np.ndarray | None = None
     #: undirected node pairs collision-checked while building (not saved in files)
     pairs_checked: int = 0
+    #: (E, 2) [B⁺, B⁻] of the shared bus per edge (J, NaN where not evaluated); None in
+    #: files written before the shared bus (docs/design.md §3h)
+    bus: np.ndarray | None = None
+    #: how the edges are priced: the drive's supply (set by :func:`attach_supply`)
+    supply: Supply = PER_JOINT
+    #: (n,) node potential φ (J) of a supply with regeneration: the search runs on
+    #: c + φ(src) − φ(dst) ≥ 0 (None: no reweighting)
+    potential: np.ndarray | None = None
 
     @property
     def checked_mask(self) -> np.ndarray:
@@ -100,9 +111,35 @@ class Roadmap:
         return int(self.src.shape[0])
 
     @property
+    def supply_energy(self) -> np.ndarray:
+        """(E,) energy drawn from the supply per edge (J, docs/design.md §3h): Σ E⁺ with
+        a supply per joint, B⁺ − η B⁻ on a shared bus (then possibly < 0)."""
+        if self.supply.is_default:
+            return self.energy.sum(axis=1)
+        return supply_energy(self.supply, self.energy, self._bus())
+
+    @property
     def cost(self) -> np.ndarray:
-        """Directed edge costs (J): E⁺ summed over joints."""
-        return self.energy.sum(axis=1)
+        """Directed edge costs the search uses (J): E⁺ summed over joints (the paper), or
+        the supply energy, reweighted by the node potential when regeneration can make
+        it negative: c + φ(src) − φ(dst), ≥ 0 (docs/design.md §3h)."""
+        if self.supply.is_default:
+            return self.energy.sum(axis=1)
+        return reweighted(self.supply_energy, self.potential, self.src, self.dst)
+
+    def _bus(self) -> np.ndarray:
+        if self.bus is None:
+            raise ValueError("this roadmap holds no shared-bus energies (written before "
+                             "them); rebuild it to price a shared bus")
+        return np.asarray(self.bus, float)
+
+    def with_costs(self, costs: np.ndarray) -> Roadmap:
+        """A copy (same nodes and edges) whose :attr:`cost` is ``costs`` (E,), carried in
+        the first column of ``energy``: only for planning (distance costs, hazard
+        penalties); energies are reported from the original."""
+        energy = np.zeros_like(np.asarray(self.energy, dtype=float))
+        energy[:, 0] = costs
+        return replace(self, energy=energy, bus=None, supply=PER_JOINT, potential=None)
 
     def graph(self) -> Graph:
         """The search graph (directed, non-negative costs) of this roadmap."""
@@ -126,6 +163,11 @@ class Roadmap:
         ids = self.edge_ids(path)
         return self.energy[ids].sum(axis=0) if ids.size else np.zeros(self.nodes.shape[1])
 
+    def path_bus(self, path: list[int]) -> np.ndarray:
+        """[B⁺, B⁻] (J) of a node path: the sums of its edges' (docs/design.md §3h)."""
+        ids = self.edge_ids(path)
+        return self._bus()[ids].sum(axis=0) if ids.size else np.zeros(2)
+
     @property
     def evaluated(self) -> np.ndarray:
         """(E,) bool: edges whose energy is known (NaN rows: not yet evaluated, §4g)."""
@@ -138,6 +180,7 @@ class Roadmap:
             self, src=self.src[keep], dst=self.dst[keep], durations=self.durations[keep],
             energy=np.array(self.energy[keep], dtype=float), edge_counts=dict(self.edge_counts),
             timings=dict(self.timings),
+            bus=None if self.bus is None else np.array(self.bus[keep], dtype=float),
             checked=None if self.checked is None else np.asarray(self.checked, bool)[keep],
         )
 
@@ -172,7 +215,8 @@ class Roadmap:
             "durations": np.asarray(self.durations, float),
             "energy": np.asarray(self.energy, float),
             "edge_counts": np.array([self.edge_counts.get(k, 0) for k in EDGE_COUNTS], np.int64),
-        } | ({} if self.checked is None else {"checked": self.checked_mask})
+        } | ({} if self.checked is None else {"checked": self.checked_mask}) | (
+            {} if self.bus is None else {"bus": np.asarray(self.bus, float)})
 
     @staticmethod
     def _checksum(key: str, arrays: dict[str, np.ndarray]) -> str:
@@ -248,8 +292,8 @@ class Roadmap:
         arrays = {
             n: data[n]
             for n in ("nodes", "endpoints", "src", "dst", "durations", "energy", "edge_counts",
-                      "checked")
-            if n in data  # "checked": only in files of lazily checked roadmaps
+                      "checked", "bus")
+            if n in data  # "checked": only in files of lazily checked roadmaps; "bus": §3h
         }
         if cls._checksum(key, arrays) != str(data["checksum"]):
             raise ValueError(
@@ -272,6 +316,7 @@ class Roadmap:
             key=key,
             edge_counts=dict(zip(EDGE_COUNTS, arrays["edge_counts"].tolist(), strict=True)),
             checked=arrays.get("checked"),
+            bus=arrays.get("bus"),
         )
 
 
@@ -326,6 +371,14 @@ def _validate_arrays(arrays: dict[str, np.ndarray], path: Path, nq: int | None) 
     checked = arrays.get("checked")
     if checked is not None and (checked.dtype != bool or checked.shape != (E,)):
         raise bad("checked must be one bool per edge")
+    bus = arrays.get("bus")
+    if bus is not None:
+        if bus.dtype.kind != "f" or bus.shape != (E, 2):
+            raise bad(f"bus must be a float ({E}, 2) array (J), got {bus.dtype} {bus.shape}")
+        if not np.array_equal(np.isnan(bus).any(axis=1), unevaluated):
+            raise bad("bus energies must be NaN exactly where the edge is not evaluated")
+        if not np.all(bus[~unevaluated] >= 0):
+            raise bad("bus energies must be >= 0 (J)")
 
 
 # --------------------------------------------------------------------------- building
@@ -459,7 +512,7 @@ def _candidate_edges(nodes, pairs, options: RoadmapOptions, arm):
     energy = np.full((src.size, nodes.shape[1]), np.nan)
     counts = {"lengthened_for_velocity": int(raised.sum()), "refused_effort": 0,
               "refused_arrival": 0}
-    return src, dst, durations, energy, counts
+    return src, dst, durations, energy, counts, np.full((src.size, 2), np.nan)
 
 
 def _cost_edges(
@@ -497,7 +550,8 @@ def _cost_edges(
     }
     if partial is not None:
         counts["chunks_reused"] = partial.chunks_reused
-    return src[keep], dst[keep], durations[keep], np.asarray(out.energy, float)[keep], counts
+    return (src[keep], dst[keep], durations[keep], np.asarray(out.energy, float)[keep], counts,
+            np.asarray(out.bus_energy, float)[keep])
 
 
 def build_roadmap(
@@ -563,7 +617,7 @@ def build_roadmap(
             if finish:
                 loaded.save(cache)
             shutil.rmtree(partial_dir(cache), ignore_errors=True)  # done: no leftovers
-            return loaded
+            return attach_supply(loaded, cost.drive)
 
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
@@ -579,13 +633,13 @@ def build_roadmap(
         timings["edge_checks"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     if evaluate:
-        src, dst, durations, energy, counts = _cost_edges(
+        src, dst, durations, energy, counts, bus = _cost_edges(
             cost, nodes, pairs, options, tqdm, show_progress,
             resume=None if cache is None else (cache, key),
         )
         timings["edge_energies"] = time.perf_counter() - t0
     else:
-        src, dst, durations, energy, counts = _candidate_edges(nodes, pairs, options, arm)
+        src, dst, durations, energy, counts, bus = _candidate_edges(nodes, pairs, options, arm)
         timings["edge_timing"] = time.perf_counter() - t0
     reused = int(counts.pop("chunks_reused", 0))
 
@@ -603,8 +657,31 @@ def build_roadmap(
         chunks_reused=reused,
         checked=None if check_edges else np.zeros(src.size, dtype=bool),
         pairs_checked=checked_pairs,
+        bus=bus,
     )
     if cache is not None:
         roadmap.save(cache)
         shutil.rmtree(partial_dir(cache), ignore_errors=True)
+    return attach_supply(roadmap, cost.drive)
+
+
+def reweighted(c: np.ndarray, potential: np.ndarray | None, src: np.ndarray,
+               dst: np.ndarray) -> np.ndarray:
+    """c + φ(src) − φ(dst) (J), the search's cost of edges priced ``c`` (docs/design.md
+    §3h); ``c`` itself without a potential. NaN (not evaluated) and ∞ stay so."""
+    c = np.asarray(c, float)
+    if potential is None:
+        return c
+    return c + (potential[src] - potential[dst])
+
+
+def attach_supply(roadmap: Roadmap, drive) -> Roadmap:
+    """``roadmap`` priced with ``drive.supply``: sets :attr:`Roadmap.supply` and, when the
+    supply regenerates, the node potential (docs/design.md §3h). In place; returned."""
+    supply = drive.supply
+    roadmap.supply = supply
+    if roadmap.bus is None and not supply.is_default:
+        raise ValueError("this roadmap file holds no shared-bus energies (written before "
+                         "them); delete it to rebuild")
+    roadmap.potential = node_potential(drive, roadmap.nodes) if supply.needs_potential else None
     return roadmap

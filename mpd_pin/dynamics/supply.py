@@ -1,0 +1,129 @@
+"""How the drives are fed: one supply per joint, or one shared DC bus (docs/design.md §3h).
+
+Paper 000 prices a motion as if every joint had its own supply that burns what its
+motor gives back: E⁺ = Σ_k ∫ max(V_k i_k, 0) dt. Industrial and collaborative arms
+feed all their drives from one DC bus, so a braking joint feeds one that lifts, and
+the bus's surplus goes to a brake resistor (η = 0) or back to the supply with an
+efficiency η. With the bus power P(t) = Σ_k V_k(t) i_k(t) (W), the energy drawn is
+
+    per_joint:  Σ_k ∫ max(V_k i_k, 0) dt                  (paper 000, eq. 2)
+    shared:     ∫ max(P, 0) dt − η ∫ max(−P, 0) dt        (B⁺ − η B⁻)
+
+B⁺ and B⁻ are integrated as two RK4 states beside E⁺ (:mod:`mpd_pin.dynamics.tracking`).
+
+With η > 0 an edge that lowers the arm can cost less than zero, which D* Lite, MPD*
+Lite and Dijkstra do not allow. :func:`node_potential` gives φ(q) with
+c(u→v) ≥ φ(v) − φ(u) for every rest-to-rest edge (docs/design.md §3h), so the search
+runs on c′ = c + φ(u) − φ(v) ≥ 0; every start-to-goal path changes by the same
+φ(start) − φ(goal), so the optimum is the same path.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["BUSES", "Supply", "PER_JOINT", "supply_energy", "energy_by_supply",
+           "node_potential", "bus_power"]
+
+#: Values of ``Supply.bus``.
+BUSES = ("per_joint", "shared")
+
+
+@dataclass(frozen=True)
+class Supply:
+    """The power supply of the drives.
+
+    bus: ``"per_joint"`` (each joint its own supply, braking energy burnt: paper 000)
+        or ``"shared"`` (one DC bus feeding every drive).
+    regeneration: η ∈ [0, 1], the share of the bus's braking surplus returned to the
+        supply (only with ``bus="shared"``; 0: a brake resistor burns it).
+    """
+
+    bus: str = "per_joint"
+    regeneration: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.bus not in BUSES:
+            raise ValueError(f"supply.bus must be one of {', '.join(map(repr, BUSES))}, "
+                             f"got {self.bus!r}")
+        try:
+            eta = float(self.regeneration)
+        except (TypeError, ValueError):
+            raise ValueError("supply.regeneration must be a number in [0, 1], "
+                             f"got {self.regeneration!r}") from None
+        if isinstance(self.regeneration, bool) or not (math.isfinite(eta) and 0.0 <= eta <= 1.0):
+            raise ValueError(f"supply.regeneration must be a number in [0, 1], got "
+                             f"{self.regeneration!r}")
+        if self.bus == "per_joint" and eta != 0.0:
+            raise ValueError(f"supply.regeneration = {eta:g} needs bus = 'shared' (a "
+                             "per-joint supply burns what its motor gives back)")
+        object.__setattr__(self, "regeneration", eta)
+
+    @property
+    def is_default(self) -> bool:
+        """The paper's model (per-joint supplies, no regeneration)."""
+        return self.bus == "per_joint"
+
+    @property
+    def needs_potential(self) -> bool:
+        """Edge costs can be negative (η > 0): the search reweights them (§3h)."""
+        return self.bus == "shared" and self.regeneration > 0.0
+
+    def describe(self) -> dict:
+        """result.json's ``supply``: ``{bus, regeneration}``."""
+        return {"bus": self.bus, "regeneration": self.regeneration}
+
+
+#: The paper's supply model, the default of every drive.
+PER_JOINT = Supply()
+
+
+def supply_energy(supply: Supply, energy: np.ndarray, bus_energy: np.ndarray) -> np.ndarray:
+    """Energy drawn from the supply (J): ``energy`` (..., nq) is E⁺ per joint,
+    ``bus_energy`` (..., 2) is (B⁺, B⁻) = (∫ max(P, 0), ∫ max(−P, 0)) (J)."""
+    if supply.bus == "per_joint":
+        return np.asarray(energy, float).sum(axis=-1)
+    bus = np.asarray(bus_energy, float)
+    return bus[..., 0] - supply.regeneration * bus[..., 1]
+
+
+def energy_by_supply(energy: np.ndarray, bus_energy: np.ndarray,
+                     regeneration: float) -> dict[str, float]:
+    """One motion's energy (J) under each model: ``per_joint`` (Σ E⁺), ``shared``
+    (B⁺, η = 0) and ``shared_regeneration`` (B⁺ − η B⁻ with the given η)."""
+    e = np.asarray(energy, float).sum(axis=tuple(range(np.ndim(energy))))
+    b = np.asarray(bus_energy, float).reshape(-1, 2).sum(axis=0)
+    return {"per_joint": float(e), "shared": float(b[0]),
+            "shared_regeneration": float(b[0] - float(regeneration) * b[1])}
+
+
+def bus_power(V: np.ndarray, i: np.ndarray) -> np.ndarray:
+    """P = Σ_k V_k i_k (W) over the last axis of voltages (V) and currents (A)."""
+    return (np.asarray(V, float) * np.asarray(i, float)).sum(axis=-1)
+
+
+def node_potential(drive, Q: np.ndarray) -> np.ndarray:
+    """φ(q) = ρ PE(q) + Σ_k ½ L_k i_hold,k(q)² (J) for each row of ``Q`` (n, nq), rad.
+
+    From L di/dt = V − R i − n Ke q̇, summed over joints, a rest-to-rest edge u → v has
+
+        ∫ P dt = Σ_k ∫ R i_k² + ½ L_k (i_k(T)² − i_k(0)²) + Σ_k ρ_k ∫ q̇_k τ_k dt,
+
+    and with one ρ = Ke/Kt on every joint the last sum is ρ (ΔKE + ΔPE + friction) ≥
+    ρ ΔPE. The supply energy B⁺ − η B⁻ = ∫ P + (1 − η) B⁻ ≥ ∫ P, and i(0) is the
+    holding current at u, so c(u→v) ≥ φ(v) − φ(u) up to ½ L (i(T)² − i_hold(v)²), the
+    end current's tracking residual (checked on every evaluated edge,
+    :mod:`mpd_pin.planning.roadmap`). Where Ke/Kt differs between joints the smallest
+    ratio is used and the check is all that stands behind it (docs/design.md §3h).
+    """
+    from .bound import _gravity, _potential
+
+    Q = np.atleast_2d(np.asarray(Q, float))
+    if Q.shape[0] == 0:
+        return np.zeros(0)
+    rho = float(np.min(drive.Ke / drive.Kt))
+    i_hold = _gravity(drive, Q) / drive.torque_per_amp
+    return rho * _potential(drive, Q) + (0.5 * drive.L * i_hold**2).sum(axis=1)

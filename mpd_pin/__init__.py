@@ -38,6 +38,7 @@ _LAZY = {
     "quintic": "dynamics",
     "simulate_edge": "dynamics",
     "sized_motors": "dynamics",
+    "Supply": "dynamics",
     "MotionEnergy": "motion",
     "MotionOptions": "motion",
     "trajectory_energy": "motion",

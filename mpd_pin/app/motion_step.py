@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ..dynamics.supply import supply_energy, supply_power
 from ..motion.energy import MotionEnergy, check_waypoints
 from ..motion.refine import NoFeasibleMotion, RefinedMotion, refine_candidates
 from ..motion.series import motion_series
@@ -58,20 +59,23 @@ class RunMotion:
         ref = self.energy.energy_per_joint
         diff = float(np.max(np.abs(recomputed - ref) / np.maximum(np.abs(ref), 1e-300)))
         return Verification(series=series, energy_per_joint=recomputed,
-                            max_relative_difference=diff)
+                            max_relative_difference=diff,
+                            bus_energy=series["bus_energy_t"][-1], supply=self.energy.supply)
 
     def record(self) -> dict[str, Any]:
         """``motion`` of result.json (docs/design.md §9d)."""
         m = self.energy
         t, V, i = self.series["t"], self.series["V"], self.series["i"]
         sampled = np.trapezoid(np.maximum(V * i, 0.0), t, axis=0) if len(t) > 1 else 0 * V[0]
+        drawn = (float(np.trapezoid(supply_power(m.supply, V * i), t)) if len(t) > 1
+                 else 0.0)  # the sampled supply energy (= Σ sampled per joint, §3h)
         total = float(m.total_energy)
         out = {
             **m.to_dict(),
             "node_times": self.series["node_times"],
             "trajectory_energy_per_joint": sampled,
             "trajectory_relative_difference": (
-                abs(float(np.sum(sampled)) - total) / total if total > 0 else 0.0),
+                abs(drawn - total) / abs(total) if total != 0 else 0.0),
             "note": self.note,
         }
         if self.refined is not None:
@@ -91,9 +95,20 @@ def roadmap_motion(drive, setup: Setup, plan: PlanResult, check: Verification) -
     T = np.asarray(roadmap.durations, float)[ids]
     m = max(len(path) - 1, 0)
     energy = np.asarray(plan.energy, dtype=float)
-    return MotionEnergy("stop", W, energy, float(energy.sum()), float(T.sum()), 0.0, 0.0, 0.0,
+    bus = roadmap.path_bus(path) if roadmap.bus is not None else np.zeros(2)
+    total = path_supply_energy(roadmap, path, energy)
+    return MotionEnergy("stop", W, energy, total, float(T.sum()), 0.0, 0.0, 0.0,
                         True, max(m - 1, 0), [(k, k + 1) for k in range(m)], T,
-                        energy_by_execution={"stop": float(energy.sum())})
+                        energy_by_execution={"stop": total}, bus_energy=bus,
+                        supply=drive.supply)
+
+
+def path_supply_energy(roadmap, path: list[int], energy: np.ndarray) -> float:
+    """The supply energy (J) of a roadmap node path whose E⁺ per joint is ``energy``:
+    their sum with a supply per joint (the paper), else the bus's (docs/design.md §3h)."""
+    if roadmap.supply.is_default:
+        return float(np.sum(energy))
+    return float(supply_energy(roadmap.supply, energy, roadmap.path_bus(path)))
 
 
 def _checker(scn: EnergyScenario, setup: Setup):
@@ -219,5 +234,5 @@ def roadmap_path_record(setup: Setup, plan: PlanResult, arm) -> dict[str, Any]:
         "configurations": setup.roadmap.nodes[plan.path],
         "length_rad": path_length(setup.roadmap, plan.path, arm),
         "energy_per_joint": plan.energy,
-        "total_energy": float(np.sum(plan.energy)),
+        "total_energy": path_supply_energy(setup.roadmap, plan.path, plan.energy),
     }

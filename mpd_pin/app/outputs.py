@@ -57,8 +57,9 @@ import numpy as np
 
 from ..dynamics.current import current_model
 from ..dynamics.motor import PAPER_MOTOR, DCMotor
+from ..dynamics.supply import energy_by_supply
 from ..planning.roadmap import Roadmap
-from .motion_step import RunMotion, roadmap_path_record
+from .motion_step import RunMotion, path_supply_energy, roadmap_path_record
 from .plan import PlanResult, Setup, path_length
 from .results import to_jsonable, write_json
 from .scenario import EnergyScenario
@@ -409,12 +410,16 @@ def result_record(
         "node_times": check.series["node_times"],
     }
     record["energy_per_joint"] = plan.energy
-    record["total_energy"] = float(plan.energy.sum())
+    record["total_energy"] = path_supply_energy(setup.roadmap, plan.path, plan.energy)
+    record["supply"] = setup.drive.supply.describe()
+    record["energy_by_supply"] = energy_by_supply(
+        check.energy_per_joint, check.bus_energy, setup.drive.supply.regeneration)
     if motion is not None:
         record["roadmap_path"] = roadmap_path_record(setup, plan, scn.arm)
         record["motion"] = motion.record()
         record["energy_per_joint"] = motion.energy.energy_per_joint
         record["total_energy"] = float(motion.energy.total_energy)
+        record["energy_by_supply"] = motion.energy.energy_by_supply()
     if comparison is not None:
         record["comparison"] = comparison
     record["verification"] = check.to_dict()
@@ -439,7 +444,7 @@ def _path_entry(roadmap: Roadmap, nodes: list[int], arm=None) -> dict[str, Any]:
         "length_nodes": len(nodes),
         "length_rad": path_length(roadmap, nodes, arm),
         "energy_per_joint": energy,
-        "total_energy": float(energy.sum()),
+        "total_energy": path_supply_energy(roadmap, nodes, energy),
     }
 
 
@@ -462,8 +467,8 @@ def comparison_record(
         basis = "planned"
     entry = _path_entry(roadmap, shortest.path, scn.arm)
     entry["energy_per_joint_simulate_edge"] = shortest_check.energy_per_joint
-    entry["total_energy_simulate_edge"] = float(shortest_check.energy_per_joint.sum())
-    e_opt = float(plan.energy.sum())
+    entry["total_energy_simulate_edge"] = shortest_check.total_energy
+    e_opt = path_supply_energy(roadmap, plan.path, plan.energy)
     out: dict[str, Any] = {
         "basis": basis,
         "cost": "joint-space length: sum over edges of the Euclidean norm of q_dst - q_src (rad)",
@@ -471,7 +476,7 @@ def comparison_record(
         "shortest_path": entry,
         "energy_saved_percent": _saved_percent(e_opt, entry["total_energy"]),
         "energy_saved_percent_simulate_edge": _saved_percent(
-            float(check.energy_per_joint.sum()), entry["total_energy_simulate_edge"]
+            check.total_energy, entry["total_energy_simulate_edge"]
         ),
     }
     if plan.execution is not None and shortest.execution is not None:

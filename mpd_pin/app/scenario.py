@@ -50,6 +50,10 @@ A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
     [limits]                   # fill/override URDF joint limits (rad/s, N·m), by joint name
     joint2 = { velocity = 2.0, effort = 30.0 }
 
+    [supply]                   # how the drives are fed (docs/design.md §3h)
+    bus = "per_joint"          # or "shared": one DC bus feeding every drive
+    regeneration = 0.0         # η in [0, 1], share of braking energy returned (shared only)
+
     [motion]                   # the returned motion (docs/design.md §9)
     execution = "auto"         # or "stop" (rest at every waypoint) / "nonstop"
     refine = true              # shortcut the roadmap paths where the energy drops
@@ -80,6 +84,7 @@ import numpy as np
 from ..arm.model import Arm
 from ..dynamics.motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
 from ..dynamics.sizing import check_holding, sized_motors
+from ..dynamics.supply import BUSES, PER_JOINT, Supply
 from ..motion.refine import MotionOptions
 from ..planning.roadmap import COLLISIONS, RoadmapOptions
 from ..search.registry import DEFAULT_PLANNER, PLANNERS
@@ -142,9 +147,12 @@ class EnergyScenario:
     motion: MotionOptions = field(default_factory=MotionOptions)
     #: "lazy" (certify the edges the search needs) or "eager" (docs/design.md §4g)
     collision: str = "lazy"
+    #: how the drives are fed: per joint (paper 000) or a shared DC bus (§3h)
+    supply: Supply = PER_JOINT
 
     def drive(self) -> Drive:
-        return Drive(self.arm, self.motor, self.kp, self.kd, feedforward=self.feedforward)
+        return Drive(self.arm, self.motor, self.kp, self.kd, feedforward=self.feedforward,
+                     supply=self.supply)
 
 
 # --------------------------------------------------------------------------- parts
@@ -563,6 +571,7 @@ def parse_energy_scenario(
     task.done()
     scheduler = _compute(top.table("compute"))
     motion = _motion(top.table("motion"))
+    supply = _supply(top.table("supply"))
     top.done()
     holding = Drive(arm, motor, kp, kd, feedforward=ff)  # a motor too weak to hold (§3g)
     for what, q in (("task.start", start), ("task.goal", goal)):
@@ -590,4 +599,17 @@ def parse_energy_scenario(
         scheduler=scheduler,
         motion=motion,
         collision=collision,
+        supply=supply,
     )
+
+
+def _supply(t: Table) -> Supply:
+    """``[supply]``: ``bus`` ("per_joint" or "shared") and ``regeneration`` η ∈ [0, 1]
+    (docs/design.md §3h)."""
+    bus = t.string("bus", "per_joint", choices=BUSES)
+    eta = t.number("regeneration", 0.0, minimum=0.0, maximum=1.0)
+    t.done()
+    try:
+        return Supply(bus, eta)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None

@@ -3,7 +3,8 @@
 * ``trajectory.csv`` (:func:`write_trajectory_csv`) — the simulated motion at the RK4
   step: ``t`` (s), then for each joint ``q_<joint>`` (rad), ``v_<joint>`` (rad/s),
   ``i_<joint>`` (A), ``V_<joint>`` (V), ``tau_<joint>`` (motor torque at the joint
-  n·Kt·i, N·m). One time base: t = 0 at the start node, no duplicate sample at the
+  n·Kt·i, N·m), then ``P_bus`` (W), the bus power Σ_k V_k·i_k (docs/design.md §3h).
+  One time base: t = 0 at the start node, no duplicate sample at the
   joins of edges (:func:`~mpd_pin.app.verify.simulate_path`). A continuous joint's
   angle is continuous in time (unwrapped, docs/design.md §1d): it may leave [−π, π]
   but never jumps by 2π.
@@ -30,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from ..dynamics.supply import bus_power
 from .results import readable_mode, write_json
 
 __all__ = [
@@ -49,17 +51,19 @@ _FIELDS = ("q", "v", "i", "V", "tau")
 
 
 def trajectory_columns(joint_names: Sequence[str]) -> list[str]:
-    """The CSV header: ``t``, then ``q_, v_, i_, V_, tau_`` for each joint, joint by joint."""
-    return ["t"] + [f"{f}_{name}" for name in joint_names for f in _FIELDS]
+    """The CSV header: ``t``, then ``q_, v_, i_, V_, tau_`` for each joint, joint by joint,
+    then ``P_bus``."""
+    return ["t"] + [f"{f}_{name}" for name in joint_names for f in _FIELDS] + ["P_bus"]
 
 
 def trajectory_table(series: dict[str, np.ndarray], torque_per_amp: np.ndarray) -> np.ndarray:
-    """(samples, 1 + 5·nq) array in the column order of :func:`trajectory_columns`;
+    """(samples, 2 + 5·nq) array in the column order of :func:`trajectory_columns`;
     ``series`` from :func:`~mpd_pin.app.verify.simulate_path`, ``torque_per_amp`` n·Kt
     (N·m/A) per joint."""
     tau = series["i"] * np.asarray(torque_per_amp, float)
     per = np.stack([series["q"], series["v"], series["i"], series["V"], tau], axis=2)
-    return np.column_stack([series["t"], per.reshape(len(series["t"]), -1)])
+    p_bus = bus_power(series["V"], series["i"])
+    return np.column_stack([series["t"], per.reshape(len(series["t"]), -1), p_bus])
 
 
 def write_trajectory_csv(

@@ -8,7 +8,7 @@ plots and the replay show.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -16,6 +16,7 @@ from ..arm import Arm
 from ..collision import edge_configurations
 from ..dynamics.motor import Drive
 from ..dynamics.simulate import simulate_edge
+from ..dynamics.supply import PER_JOINT, Supply, supply_energy
 from ..planning.roadmap import Roadmap
 
 __all__ = ["Verification", "simulate_path", "straight_line_configurations", "verify_path"]
@@ -27,7 +28,8 @@ def simulate_path(
     """Simulate every edge of ``path`` with :func:`simulate_edge` and concatenate the series.
 
     Returns t (s), q (rad), v (rad/s), i (A), V (V), energy_t (cumulative E⁺ per joint, J),
-    energy per edge (E⁺ per joint, J) and the node times (s). One time base: t = 0 at the
+    energy per edge (E⁺ per joint, J), bus_energy_t and edge_bus (the same for the shared
+    bus's [B⁺, B⁻], J, docs/design.md §3h) and the node times (s). One time base: t = 0 at the
     start node, each later edge's first sample dropped (the previous edge's end stands for
     it); the start sample is the first edge's (at rest, holding: i = G(q)/(n·Kt)). A
     one-node path is that holding state alone (V = R·i with feed-forward, else 0).
@@ -44,8 +46,8 @@ def simulate_path(
     ts, qs, es = [np.zeros(1)], [q_start[None]], [np.zeros((1, nq))]
     V_hold = drive.R * i_hold if drive.feedforward else np.zeros(nq)
     vs, cs, Vs = [np.zeros((1, nq))], [i_hold[None]], [V_hold[None]]
-    per_edge = []
-    t0, e0 = 0.0, np.zeros(nq)
+    per_edge, per_edge_bus, bs = [], [], [np.zeros((1, 2))]
+    t0, e0, b0 = 0.0, np.zeros(nq), np.zeros(2)
     node_times = [0.0]
     turns = np.zeros(nq)  # whole turns (rad) of the unwrapped motion (§1d)
     for e in ids:
@@ -62,8 +64,11 @@ def simulate_path(
         Vs.append(sim.V[1:])
         es.append(e0 + sim.energy_t[1:])
         per_edge.append(sim.energy)
+        bs.append(b0 + sim.bus_energy_t[1:])
+        per_edge_bus.append(sim.bus_energy)
         t0 += float(sim.t[-1])
         e0 = e0 + sim.energy
+        b0 = b0 + sim.bus_energy
         node_times.append(t0)
     return {
         "t": np.concatenate(ts),
@@ -73,6 +78,8 @@ def simulate_path(
         "V": np.concatenate(Vs),
         "energy_t": np.concatenate(es),
         "edge_energy": np.array(per_edge).reshape(len(ids), nq),
+        "bus_energy_t": np.concatenate(bs),
+        "edge_bus": np.array(per_edge_bus).reshape(len(ids), 2),
         "node_times": np.array(node_times),
     }
 
@@ -95,11 +102,19 @@ def straight_line_configurations(
 @dataclass
 class Verification:
     """The path re-simulated: ``series`` (see :func:`simulate_path`), the recomputed
-    E⁺ per joint (J) and its agreement with the roadmap's energy."""
+    E⁺ per joint (J) and its agreement with the roadmap's energy; the recomputed bus
+    energies [B⁺, B⁻] (J) and the supply that prices them (docs/design.md §3h)."""
 
     series: dict[str, np.ndarray]
     energy_per_joint: np.ndarray
     max_relative_difference: float
+    bus_energy: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    supply: Supply = PER_JOINT
+
+    @property
+    def total_energy(self) -> float:
+        """The recomputed supply energy (J): Σ E⁺ with a supply per joint."""
+        return float(supply_energy(self.supply, self.energy_per_joint, self.bus_energy))
 
     @property
     def duration(self) -> float:
@@ -112,11 +127,14 @@ class Verification:
         max(|roadmap|, 1e-300), 0 for a one-node path; ``null`` only if it overflows (a
         joint with zero roadmap energy but a recomputed one above ~1.8e8 J) — and
         ``duration`` (s)."""
-        return {
+        out = {
             "energy_per_joint_simulate_edge": self.energy_per_joint,
             "max_relative_difference": self.max_relative_difference,
             "duration": self.duration,
         }
+        if not self.supply.is_default:
+            out["total_energy_simulate_edge"] = self.total_energy
+        return out
 
 
 def verify_path(
@@ -131,4 +149,5 @@ def verify_path(
         if len(path) > 1
         else 0.0
     )
-    return Verification(series=series, energy_per_joint=recomputed, max_relative_difference=diff)
+    return Verification(series=series, energy_per_joint=recomputed, max_relative_difference=diff,
+                        bus_energy=series["edge_bus"].sum(axis=0), supply=drive.supply)

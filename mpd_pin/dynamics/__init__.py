@@ -19,6 +19,7 @@ from .simulate import (
     step_count,
 )
 from .sizing import sized_motor, sized_motors
+from .supply import Supply
 
 __all__ = [
     "DCMotor",
@@ -37,4 +38,5 @@ __all__ = [
     "sized_motor",
     "sized_motors",
     "step_count",
+    "Supply",
 ]

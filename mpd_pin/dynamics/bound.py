@@ -154,7 +154,7 @@ class EnergyBound:
             "uniform_ke_over_kt": self.uniform_ratio,
             "rigorous": self.rigorous,
             "proven": self.proven,
-        }
+        } | ({} if self.drive.supply.is_default else {"supply": self.drive.supply.describe()})
         if self.mode == "per_joint":
             out["margin"] = self.margin
             out["saturation_fraction"] = SATURATION_FRACTION
@@ -196,15 +196,45 @@ class EnergyBound:
         mechanical = self.rho * (pe + friction - margin)
         return {"copper": copper, "inductor": inductor, "mechanical": mechanical}
 
-    def __call__(self, Q0: np.ndarray, Q1: np.ndarray, durations: np.ndarray) -> np.ndarray:
-        """(K,) lower bound (J) of each edge's E⁺ summed over joints, ≥ 0."""
+    def __call__(self, Q0: np.ndarray, Q1: np.ndarray, durations: np.ndarray, *,
+                 potential: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+        """(K,) lower bound (J) of each edge's cost, ≥ 0: E⁺ summed over joints, or with a
+        shared bus (``drive.supply``) the supply energy, reweighted by the node potential
+        when it regenerates (``potential`` = (φ at Q0, φ at Q1), J; computed if not
+        given). See :meth:`_bus_bound`."""
         if len(Q0) == 0:
             return np.zeros(0)
         p = self.parts(Q0, Q1, durations)
+        if not self.drive.supply.is_default:
+            return self._bus_bound(p, Q0, Q1, potential)
         if self.mode == "per_joint":
             return p["joint"].sum(axis=1)
         total = (p["copper"] + p["inductor"]).sum(axis=1) + p["mechanical"]
         return np.maximum(total, 0.0)
+
+    def _bus_bound(self, p: dict, Q0: np.ndarray, Q1: np.ndarray,
+                   potential: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+        """The shared bus (docs/design.md §3h). Per piece I_p of the edge, S_p estimates
+        ∫_{I_p} P dt = Σ_k ∫_{I_p} V_k i_k dt by (1) summed over the joints; since
+        ∫ max(±P, 0) ≥ Σ_p max(±S_p, 0) and B⁺ − η B⁻ = ∫ P + (1 − η) B⁻,
+
+            B⁺ − η B⁻ ≥ Σ_p [max(S_p, 0) − η max(−S_p, 0)],
+
+        plus φ(u) − φ(v) with regeneration; × (1 − margin), clipped at 0 (the reweighted
+        cost is ≥ 0). In ``sum`` mode the one piece is the summed energy balance."""
+        eta = self.drive.supply.regeneration
+        if self.mode == "per_joint":
+            S = (p["copper"] + p["inductor"] + p["mechanical"]).sum(axis=2)  # (pieces, K)
+        else:
+            S = ((p["copper"] + p["inductor"]).sum(axis=1) + p["mechanical"])[None]
+        c = (np.maximum(S, 0.0) - eta * np.maximum(-S, 0.0)).sum(axis=0)
+        if self.drive.supply.needs_potential:
+            if potential is None:
+                from .supply import node_potential
+
+                potential = (node_potential(self.drive, Q0), node_potential(self.drive, Q1))
+            c = c + (potential[0] - potential[1])
+        return (1.0 - self.margin) * np.maximum(c, 0.0)
 
     # ------------------------------------------------------------------ per joint
     def _per_joint_parts(self, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray) -> dict:

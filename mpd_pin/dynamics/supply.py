@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["BUSES", "Supply", "PER_JOINT", "supply_energy", "energy_by_supply",
-           "node_potential", "bus_power"]
+           "node_potential", "bus_power", "supply_power"]
 
 #: Values of ``Supply.bus``.
 BUSES = ("per_joint", "shared")
@@ -127,3 +127,14 @@ def node_potential(drive, Q: np.ndarray) -> np.ndarray:
     rho = float(np.min(drive.Ke / drive.Kt))
     i_hold = _gravity(drive, Q) / drive.torque_per_amp
     return rho * _potential(drive, Q) + (0.5 * drive.L * i_hold**2).sum(axis=1)
+
+
+def supply_power(supply: Supply, P: np.ndarray) -> np.ndarray:
+    """The supply's power (W) from the joint powers ``P`` = V_k i_k (..., nq): Σ_k max(P_k, 0)
+    per joint, max(Σ P, 0) − η max(−Σ P, 0) on a shared bus; its integral is the supply
+    energy (the perfect-tracking screens integrate it)."""
+    P = np.asarray(P, float)
+    if supply.bus == "per_joint":
+        return np.maximum(P, 0.0).sum(axis=-1)
+    Pb = P.sum(axis=-1)
+    return np.maximum(Pb, 0.0) - supply.regeneration * np.maximum(-Pb, 0.0)

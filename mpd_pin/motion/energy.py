@@ -27,6 +27,13 @@ import numpy as np
 
 from ..dynamics.motor import Drive
 from ..dynamics.simulate import EdgeOutcomes, edge_outcomes, step_count
+from ..dynamics.supply import (
+    PER_JOINT,
+    Supply,
+    energy_by_supply,
+    supply_energy,
+    supply_power,
+)
 from ..dynamics.tracking import _pool, feedforward_tables, integrate_tables
 from .spline import ViaSpline, arc_boxes, pieces, unit_knots, via_spline
 
@@ -84,6 +91,16 @@ class MotionEnergy:
     fastest: float = 0.0
     #: a straight segment between the waypoints failed the certified check
     colliding: bool = False
+    #: [B⁺, B⁻] of the shared bus over the motion (J, docs/design.md §3h)
+    bus_energy: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    #: the supply ``total_energy`` is priced with (the drive's)
+    supply: Supply = PER_JOINT
+
+    def energy_by_supply(self) -> dict[str, float]:
+        """This motion's energy (J) per joint, on a shared bus, and on a shared bus with
+        this supply's regeneration (docs/design.md §3h)."""
+        return energy_by_supply(self.energy_per_joint, self.bus_energy,
+                                self.supply.regeneration)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON data (docs/design.md §9d)."""
@@ -93,6 +110,7 @@ class MotionEnergy:
             "reason": self.reason,
             "total_energy": float(self.total_energy),
             "energy_per_joint": [float(x) for x in self.energy_per_joint],
+            "bus_energy": [float(x) for x in self.bus_energy],
             "duration": float(self.duration),
             "stops": int(self.stops),
             "pieces": [[int(a), int(b)] for a, b in self.pieces],
@@ -171,6 +189,8 @@ def _stop(drive: Drive, W: np.ndarray, dt: float, options, checker, effort_on: b
     T, _ = options.timing(Q0, Q1, drive.arm.model.velocityLimit)
     out = _outcomes(drive, Q0, Q1, T, dt, memo)
     energy = out.energy.sum(axis=0)
+    bus = out.bus_energy.sum(axis=0)
+    total = float(supply_energy(drive.supply, energy, bus))
     vel = float(np.max(1.875 * np.abs(Q1 - Q0) / T[:, None] / vlim))
     eff = float(np.max(out.peak_torque / elim))
     err = float(np.max(np.abs(out.end_error)))
@@ -190,9 +210,10 @@ def _stop(drive: Drive, W: np.ndarray, dt: float, options, checker, effort_on: b
                            "is not collision-free")
     m = W.shape[0] - 1
     colliding = checker is not None and not free.all()
-    return MotionEnergy("stop", W, energy, float(energy.sum()), float(T.sum()), err, vel, eff,
+    return MotionEnergy("stop", W, energy, total, float(T.sum()), err, vel, eff,
                         not reasons, m - 1, [(i, i + 1) for i in range(m)], T,
-                        "; ".join(reasons), fastest=float(T.sum()), colliding=colliding)
+                        "; ".join(reasons), fastest=float(T.sum()), colliding=colliding,
+                        bus_energy=bus, supply=drive.supply)
 
 
 # ----------------------------------------------------------------------------- non-stop
@@ -265,14 +286,16 @@ def _piece(drive: Drive, W: np.ndarray, dt: float, options, t_max: float | None,
         if not Ts.size:
             return
         out = _simulate_nonstop(drive, vs, Ts, dt)
-        E, _, err, _, peak = out
+        E, _, err, _, peak, B = out
         for k, T in enumerate(Ts.tolist()):
             eff = float(np.max(peak[k] / elim))
             e = float(np.max(np.abs(err[k])))
             ok = (not effort_on or eff <= 1.0 + 1e-12) and e <= options.arrival_tolerance
-            rows[T] = {"energy": E[k].copy(), "end_error": e, "effort": eff, "ok": ok,
+            total = float(supply_energy(drive.supply, E[k], B[k]))
+            rows[T] = {"energy": E[k].copy(), "bus": B[k].copy(), "total": total,
+                       "end_error": e, "effort": eff, "ok": ok,
                        "velocity": ratio / 1.002 * vs.unit_duration / T}
-            curve.append((T, float(E[k].sum())))
+            curve.append((T, total))
 
     # Screen the durations by perfect-tracking energy (no simulation), simulate the best
     # one and its neighbours in one batch; the whole grid only if none of them is feasible.
@@ -294,7 +317,7 @@ def _piece(drive: Drive, W: np.ndarray, dt: float, options, t_max: float | None,
     if not ok:
         worst = rows[max(rows)]
         return vs, max(rows), dict(worst, ok=False, ideal=ideal), curve
-    best = min(ok, key=lambda T: rows[T]["energy"].sum())
+    best = min(ok, key=lambda T: rows[T]["total"])
     return vs, best, dict(rows[best], ideal=ideal), curve
 
 
@@ -304,15 +327,16 @@ def _ideal_curve(grid: np.ndarray, energy: np.ndarray) -> list[tuple[float, floa
 
 def ideal_nonstop(drive: Drive, vs: ViaSpline, durations: np.ndarray, samples: int = 256
                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Perfect-tracking E⁺ (J, summed over joints) of the spline ``vs`` stretched to each
-    duration (s), by Simpson's rule over ``samples`` + 1 points, and the peak feed-forward
-    torque per joint (N·m), (K, nq) — a screen for the duration search (§9c)."""
+    """Perfect-tracking supply energy (J; Σ E⁺ over joints with a supply per joint, §3h) of
+    the spline ``vs`` stretched to each duration (s), by Simpson's rule over ``samples`` +
+    1 points, and the peak feed-forward torque per joint (N·m), (K, nq) — a screen for the
+    duration search (§9c)."""
     T = np.asarray(durations, dtype=float)
     tau = np.linspace(0.0, 1.0, samples + 1)
     t = tau[:, None] * T[None, :]
     Qr, Vr, Ar, Jr = vs.derivatives(t, T)
     Vff, iff = feedforward_tables(drive, Qr, Vr, Ar, Jr)
-    P = np.maximum(Vff * iff, 0.0).sum(axis=2)
+    P = supply_power(drive.supply, Vff * iff)
     w = np.ones(tau.size)
     w[1:-1:2], w[2:-1:2] = 4.0, 2.0
     energy = (w @ P) / (3.0 * samples) * T
@@ -385,6 +409,7 @@ def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_durat
     else:
         parts = _certified_pieces(W, checker, options.resolution, vlim)
     energy = np.zeros(drive.nq)
+    bus = np.zeros(2)
     durations, curve, reasons, ideal = [], [], [], []
     err = vel = eff = fastest = 0.0
     quick = [_fastest(via_spline(W[i : j + 1], unit_knots(W[i : j + 1], vlim)), vlim, options,
@@ -405,6 +430,7 @@ def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_durat
             reasons.append(f"piece {i}–{j}: no feasible duration (effort {row['effort']:.3g}×, "
                            f"end error {row['end_error']:.3g} rad)")
         energy += row["energy"]
+        bus += row["bus"]
         durations.append(T)
         err, vel, eff = max(err, row["end_error"]), max(vel, row["velocity"]), max(
             eff, row["effort"])
@@ -413,10 +439,11 @@ def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_durat
     if stop is not None and stop.colliding:
         reasons.append(stop.reason)
     stops = len(parts) - 1
-    return MotionEnergy("nonstop", W, energy, float(energy.sum()), float(np.sum(durations)),
+    total = float(supply_energy(drive.supply, energy, bus))
+    return MotionEnergy("nonstop", W, energy, total, float(np.sum(durations)),
                         err, vel, eff, not reasons, stops, parts, np.asarray(durations),
                         "; ".join(reasons), duration_curve=curve, ideal_curve=ideal,
-                        fastest=fastest)
+                        fastest=fastest, bus_energy=bus, supply=drive.supply)
 
 
 # ----------------------------------------------------------------------------- public

@@ -22,11 +22,12 @@ result's stop-and-go energy is exact.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..dynamics.motor import Drive
+from ..dynamics.supply import PER_JOINT, Supply, supply_energy
 from .shortcut import _edge_costs, ideal_costs
 
 __all__ = ["RelaxResult", "relax_path"]
@@ -34,18 +35,22 @@ __all__ = ["RelaxResult", "relax_path"]
 
 @dataclass
 class RelaxResult:
-    """The relaxed waypoints (m+1, nq) rad, their stop-and-go E⁺ per joint (J), the E⁺ of the
-    path given (J), the via points moved, and the edges simulated."""
+    """The relaxed waypoints (m+1, nq) rad, their stop-and-go E⁺ per joint (J), the supply
+    energy of the path given (J), the via points moved, the edges simulated, the bus
+    energies [B⁺, B⁻] (J) and the supply that prices them (docs/design.md §3h)."""
 
     waypoints: np.ndarray
     energy_per_joint: np.ndarray
     initial_energy: float
     moves: int
     edges_simulated: int
+    bus_energy: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    supply: Supply = PER_JOINT
 
     @property
     def total_energy(self) -> float:
-        return float(self.energy_per_joint.sum())
+        """The supply energy (J): Σ E⁺ with a supply per joint."""
+        return float(supply_energy(self.supply, self.energy_per_joint, self.bus_energy))
 
 
 def relax_path(
@@ -80,13 +85,18 @@ def relax_path(
     finite = np.isfinite(lo) & np.isfinite(hi)
     span = np.where(finite, hi - lo, 2 * np.pi)
     lo_c, hi_c = np.where(finite, lo, -np.inf), np.where(finite, hi, np.inf)
-    seg, ok, simulated = _edge_costs(drive, W, np.arange(m), np.arange(1, m + 1), options, dt,
-                                     effort_on, memo)
-    initial = float(seg.sum())
+    seg, ok, simulated, bus, cost = _edge_costs(drive, W, np.arange(m), np.arange(1, m + 1),
+                                                options, dt, effort_on, memo)
+    initial = float(cost.sum())
     moves = 0
     step = float(sigma)
+
+    def result(W: np.ndarray, moves: int) -> RelaxResult:
+        return RelaxResult(W, seg.sum(axis=0), initial, moves, simulated, bus.sum(axis=0),
+                           drive.supply)
+
     if m < 2 or not ok.all():
-        return RelaxResult(W, seg.sum(axis=0), initial, 0, simulated)
+        return result(W, 0)
 
     def screen_path(Q: np.ndarray) -> np.ndarray:
         return ideal_costs(drive, Q[:-1], Q[1:], options.timing(Q[:-1], Q[1:], vlim)[0])
@@ -134,11 +144,11 @@ def relax_path(
         if not moved:
             step /= 2
     if moves:  # the relaxed path, simulated in one batch: kept if its E⁺ really fell
-        E, ok, fresh = _edge_costs(drive, W, np.arange(m), np.arange(1, m + 1), options, dt,
-                                   effort_on, memo)
+        E, ok, fresh, B, C = _edge_costs(drive, W, np.arange(m), np.arange(1, m + 1), options,
+                                         dt, effort_on, memo)
         simulated += fresh
-        if ok.all() and E.sum() < seg.sum() * (1.0 - 1e-9):
-            seg = E
+        if ok.all() and C.sum() < cost.sum() - 1e-9 * abs(cost.sum()):
+            seg, bus = E, B
         else:
             W, moves = start, 0
-    return RelaxResult(W, seg.sum(axis=0), initial, moves, simulated)
+    return result(W, moves)

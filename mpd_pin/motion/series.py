@@ -21,7 +21,8 @@ __all__ = ["motion_series"]
 
 
 def _stop_edges(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, dt: float):
-    """(t, q, v, i, V, energy_t, via times) of each rest-to-rest quintic edge, one batch."""
+    """(t, q, v, i, V, energy_t, bus_energy_t, via times) of each rest-to-rest quintic edge,
+    one batch."""
     import os
 
     from ..dynamics.simulate import _integrate_batch
@@ -31,11 +32,12 @@ def _stop_edges(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, dt:
     for k, n in enumerate(N.tolist()):
         t = np.arange(n + 1) * dt
         yield (t, rec.q[: n + 1, k], rec.v[: n + 1, k], rec.i[: n + 1, k], rec.V[: n + 1, k],
-               rec.energy_t[: n + 1, k], np.array([0.0, t[-1]]))
+               rec.energy_t[: n + 1, k], rec.bus_energy_t[: n + 1, k], np.array([0.0, t[-1]]))
 
 
 def _pieces(drive: Drive, m: MotionEnergy, dt: float):
-    """(t, q, v, i, V, energy_t, via times) of each piece of ``m``, each from t = 0."""
+    """(t, q, v, i, V, energy_t, bus_energy_t, via times) of each piece of ``m``, each from
+    t = 0."""
     W = m.waypoints
     if m.execution == "stop":
         P = np.asarray(m.pieces)
@@ -50,25 +52,28 @@ def _pieces(drive: Drive, m: MotionEnergy, dt: float):
         n = rec.q.shape[0]
         t = np.arange(n) * dt
         yield (t, rec.q[:, 0], rec.v[:, 0], rec.i[:, 0], rec.V[:, 0], rec.energy_t[:, 0],
-               vs.knots * (float(T) / vs.unit_duration))
+               rec.bus_energy_t[:, 0], vs.knots * (float(T) / vs.unit_duration))
 
 
 def motion_series(drive: Drive, m: MotionEnergy, dt: float) -> dict[str, np.ndarray]:
     """t (s), q (rad), v (rad/s), i (A), V (V), energy_t (cumulative E⁺ per joint, J),
+    bus_energy_t (cumulative [B⁺, B⁻] of the shared bus, J, docs/design.md §3h),
     piece_energy (E⁺ per joint of each piece, J) and node_times (s, when the motion passes
     each waypoint) of the motion ``m`` (RK4 step ``dt`` s)."""
-    cols: dict[str, list] = {k: [] for k in ("t", "q", "v", "i", "V", "energy_t")}
-    t0, e0 = 0.0, np.zeros(drive.nq)
+    cols: dict[str, list] = {k: [] for k in ("t", "q", "v", "i", "V", "energy_t",
+                                              "bus_energy_t")}
+    t0, e0, b0 = 0.0, np.zeros(drive.nq), np.zeros(2)
     node_times = [0.0]
     per_piece = []
-    for k, (t, q, v, i, V, et, knots) in enumerate(_pieces(drive, m, dt)):
+    for k, (t, q, v, i, V, et, bt, knots) in enumerate(_pieces(drive, m, dt)):
         s = 0 if k == 0 else 1
-        for key, arr in zip(cols, (t0 + t, q, v, i, V, e0 + et), strict=True):
+        for key, arr in zip(cols, (t0 + t, q, v, i, V, e0 + et, b0 + bt), strict=True):
             cols[key].append(arr[s:])
         node_times.extend((t0 + knots[1:]).tolist())
         per_piece.append(et[-1])
         t0 += float(t[-1])
         e0 = e0 + et[-1]
+        b0 = b0 + bt[-1]
     out = {k: np.concatenate(v) for k, v in cols.items()}
     out["piece_energy"] = np.array(per_piece)
     out["node_times"] = np.array(node_times)

@@ -26,11 +26,12 @@ the stop-and-go energy of the result is the DP's value, exactly.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..dynamics.motor import Drive
+from ..dynamics.supply import PER_JOINT, Supply, supply_energy, supply_power
 
 __all__ = ["ShortcutResult", "densify", "shortcut_path"]
 
@@ -38,8 +39,9 @@ __all__ = ["ShortcutResult", "densify", "shortcut_path"]
 @dataclass
 class ShortcutResult:
     """The shortcut path (waypoints (m+1, nq) rad), its stop-and-go E⁺ (J) per joint,
-    the E⁺ of the path it started from (J), the rounds run, the pairs certified and the
-    edges simulated."""
+    the supply energy of the path it started from (J), the rounds run, the pairs certified
+    and the edges simulated, the bus energies [B⁺, B⁻] (J) and the supply that prices it
+    (docs/design.md §3h)."""
 
     waypoints: np.ndarray
     energy_per_joint: np.ndarray
@@ -47,10 +49,13 @@ class ShortcutResult:
     rounds: int
     pairs_checked: int
     edges_simulated: int
+    bus_energy: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    supply: Supply = PER_JOINT
 
     @property
     def total_energy(self) -> float:
-        return float(self.energy_per_joint.sum())
+        """The supply energy (J): Σ E⁺ with a supply per joint."""
+        return float(supply_energy(self.supply, self.energy_per_joint, self.bus_energy))
 
 
 def densify(W: np.ndarray, interior: int) -> tuple[np.ndarray, np.ndarray]:
@@ -65,11 +70,12 @@ def densify(W: np.ndarray, interior: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _edge_costs(drive: Drive, P: np.ndarray, I: np.ndarray, J: np.ndarray, options, dt: float,
-                effort_on: bool, memo: dict | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+                effort_on: bool, memo: dict | None = None):
     """E⁺ per joint (K, nq) of the straight edges P[I] → P[J] timed by the roadmap rule,
-    whether each is feasible by the roadmap's rules (docs/design.md §4e), and how many
-    were simulated (the others come from ``memo``, shared with
-    :func:`~mpd_pin.motion.energy.trajectory_energy`)."""
+    whether each is feasible by the roadmap's rules (docs/design.md §4e), how many were
+    simulated (the others come from ``memo``, shared with
+    :func:`~mpd_pin.motion.energy.trajectory_energy`), their bus energies (K, 2) and
+    their supply energies (K,) J (the cost, docs/design.md §3h)."""
     from ..planning.roadmap import feasibility
     from .energy import _outcomes
 
@@ -81,7 +87,8 @@ def _edge_costs(drive: Drive, P: np.ndarray, I: np.ndarray, J: np.ndarray, optio
     fresh = sum(1 for k in memo if k[0] == "outcome") - before
     over, missed = feasibility(out, options, drive.arm.model)
     ok = ~missed & (~over if effort_on else True)
-    return np.asarray(out.energy), ok, fresh
+    E, B = np.asarray(out.energy), np.asarray(out.bus_energy)
+    return E, ok, fresh, B, supply_energy(drive.supply, E, B)
 
 
 def _dp(n: int, I: np.ndarray, J: np.ndarray, cost: np.ndarray, max_edges: int) -> list[int]:
@@ -118,9 +125,10 @@ SCREEN_TOL = 5e-3
 
 def ideal_costs(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray,
                 samples: int = 64) -> np.ndarray:
-    """Perfect-tracking E⁺ (J, summed over joints) of the rest-to-rest quintic edges
-    Q0[k] → Q1[k] lasting T[k] s (docs/design.md §3f): ∫ max(V_ff·i_ff, 0) dt by Simpson's
-    rule over ``samples`` + 1 points of normalised time — no simulation. A screen: measured
+    """Perfect-tracking supply energy (J; E⁺ summed over joints with a supply per joint,
+    §3h) of the rest-to-rest quintic edges Q0[k] → Q1[k] lasting T[k] s (docs/design.md
+    §3f): ∫ max(V_ff·i_ff, 0) dt (or the shared bus's power) by Simpson's rule over
+    ``samples`` + 1 points of normalised time — no simulation. A screen: measured
     within 0.3 % of the simulated E⁺ (rank correlation 1.0) on 60 random edges each of the
     Panda, UR5 (``sized``) and quickstart; the choices it makes are simulated after."""
     from ..dynamics.simulate import _feedforward_batch
@@ -136,7 +144,7 @@ def ideal_costs(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray,
         b = min(K, a + step)
         Vff, iff = _feedforward_batch(drive, Q0[a:b], Q1[a:b] - Q0[a:b], tau2[:, a:b],
                                       np.asarray(T[a:b], float))
-        P = np.maximum(Vff * iff, 0.0).sum(axis=2)  # (nt, k)
+        P = supply_power(drive.supply, Vff * iff)  # (nt, k)
         w = np.ones(tau.size)
         w[1:-1:2], w[2:-1:2] = 4.0, 2.0
         out[a:b] = (w @ P) / (3.0 * samples) * np.asarray(T[a:b], float)
@@ -150,12 +158,13 @@ def lazy_sequence(drive: Drive, P: np.ndarray, I: np.ndarray, J: np.ndarray, kno
     (:func:`ideal_costs`); the edges of its answer are certified (unless ``known_free``)
     and simulated, refused ones leave, simulated ones take their true E⁺, and the DP runs
     again until its answer is certified and simulated throughout. Returns (sequence, E⁺
-    per joint of its edges (m, nq), pairs certified, edges simulated)."""
+    per joint of its edges (m, nq), pairs certified, edges simulated, bus energies of its
+    edges (m, 2))."""
     T = options.timing(P[I], P[J], drive.arm.model.velocityLimit)[0]
     cost = ideal_costs(drive, P[I], P[J], T)
     free = np.asarray(known_free, dtype=bool).copy()  # certified (or known) free
     tried = free.copy()
-    done: dict[int, np.ndarray] = {}
+    done: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     index = {(int(i), int(j)): e for e, (i, j) in enumerate(zip(I, J, strict=True))}
     checked = simulated = 0
     while True:
@@ -172,21 +181,29 @@ def lazy_sequence(drive: Drive, P: np.ndarray, I: np.ndarray, J: np.ndarray, kno
                 continue
         uns = np.array([x for x in e.tolist() if x not in done], dtype=np.int64)
         if uns.size:
-            E, ok, fresh = _edge_costs(drive, P, I[uns], J[uns], options, dt, effort_on, memo)
+            E, ok, fresh, B, C = _edge_costs(drive, P, I[uns], J[uns], options, dt, effort_on,
+                                             memo)
             simulated += fresh
             for r, x in enumerate(uns.tolist()):
-                done[x] = E[r]
-            cost[uns] = np.where(ok, E.sum(axis=1), np.inf)
+                done[x] = (E[r], B[r])
+            cost[uns] = np.where(ok, C, np.inf)
             if not ok.all():
                 continue
             # the true costs may change the DP's answer: run it again, unless the best it
             # could now find is within the screen's accuracy of this simulated answer
             again = _dp(P.shape[0], I, J, cost, max_edges)
             e2 = [index[(a, b)] for a, b in zip(again[:-1], again[1:], strict=True)]
-            if again == seq or cost[e2].sum() > cost[e].sum() * (1.0 - SCREEN_TOL):
-                return seq, np.array([done[x] for x in e.tolist()]), checked, simulated
+            here = cost[e].sum()
+            if again == seq or cost[e2].sum() > here - SCREEN_TOL * abs(here):
+                return (seq, *_rows(done, e), checked, simulated)
             continue
-        return seq, np.array([done[x] for x in e.tolist()]), checked, simulated
+        return (seq, *_rows(done, e), checked, simulated)
+
+
+def _rows(done: dict, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """E⁺ per joint (m, nq) and bus energies (m, 2) of the simulated edges ``e``."""
+    return (np.array([done[x][0] for x in e.tolist()]),
+            np.array([done[x][1] for x in e.tolist()]))
 
 
 def shortcut_path(
@@ -211,24 +228,33 @@ def shortcut_path(
     W = np.asarray(waypoints, dtype=float)
     m = W.shape[0] - 1
     max_edges = m  # never more stops than the path had
-    E0, ok0, simulated = _edge_costs(drive, W, np.arange(m), np.arange(1, m + 1), options, dt,
-                                     effort_on, memo)
-    initial = float(np.where(ok0, E0.sum(axis=1), np.inf).sum())
-    current = (W, E0.sum(axis=0)) if ok0.all() else None
+    E0, ok0, simulated, B0, C0 = _edge_costs(drive, W, np.arange(m), np.arange(1, m + 1),
+                                             options, dt, effort_on, memo)
+    initial = float(np.where(ok0, C0, np.inf).sum())
+
+    def total(E: np.ndarray, B: np.ndarray) -> float:
+        return float(supply_energy(drive.supply, E, B))
+
+    current = (W, E0.sum(axis=0), B0.sum(axis=0)) if ok0.all() else None
     checked = rounds = 0
     for _ in range(max_rounds):
         P, _ = densify(W, interior)
         I, J = np.triu_indices(P.shape[0], 1)
-        seq, E, c, fresh = lazy_sequence(drive, P, I, J, J == I + 1, checker, options, dt,
-                                         effort_on, memo, max_edges)
+        seq, E, B, c, fresh = lazy_sequence(drive, P, I, J, J == I + 1, checker, options, dt,
+                                            effort_on, memo, max_edges)
         checked += c
         simulated += fresh
-        energy = E.sum(axis=0)
+        energy, bus = E.sum(axis=0), B.sum(axis=0)
         rounds += 1
-        improved = current is None or energy.sum() < current[1].sum() * (1.0 - tol)
+        if current is None:
+            improved = True
+        else:
+            before = total(current[1], current[2])
+            improved = total(energy, bus) < before - tol * abs(before)
         if improved:
-            current = (P[seq], energy)
+            current = (P[seq], energy, bus)
             W = P[seq]
         if not improved or len(seq) == 2:
             break
-    return ShortcutResult(current[0], current[1], initial, rounds, checked, simulated)
+    return ShortcutResult(current[0], current[1], initial, rounds, checked, simulated,
+                          current[2], drive.supply)

@@ -122,7 +122,12 @@ class LazyEdges:
         t0 = time.perf_counter()
         Q0 = rm.nodes[rm.src]
         self._Q1 = edge_target(cost, Q0, rm.nodes[rm.dst])  # shorter way round (§1d)
-        self.lower = np.asarray(self.bound(Q0, self._Q1, rm.durations), dtype=float)
+        if rm.potential is None:
+            lower = self.bound(Q0, self._Q1, rm.durations)
+        else:  # the bound of the reweighted cost (docs/design.md §3h)
+            lower = self.bound(Q0, self._Q1, rm.durations,
+                               potential=(rm.potential[rm.src], rm.potential[rm.dst]))
+        self.lower = np.asarray(lower, dtype=float)
         self.bound_seconds = time.perf_counter() - t0
         if self.lower.shape != (rm.num_edges,) or not np.all(np.isfinite(self.lower)
                                                               & (self.lower >= 0)):
@@ -194,7 +199,7 @@ class LazyEdges:
         """Planning energy costs (J): true E⁺ sum where evaluated, ∞ where refused, the
         (scaled) bound elsewhere."""
         ids = np.arange(self.roadmap.num_edges) if ids is None else np.asarray(ids)
-        e = self.roadmap.energy[ids].sum(axis=1)
+        e = self.roadmap.edge_costs(ids)
         out = np.where(np.isnan(e), self.scale * self.lower[ids], e)
         out[self.refused[ids]] = math.inf
         return out
@@ -226,7 +231,7 @@ class LazyEdges:
         """Compare bound and true cost on evaluated edges ``ids``; scale on a violation."""
         if ids.size == 0:
             return False
-        true = self.roadmap.energy[ids].sum(axis=1)
+        true = self.roadmap.edge_costs(ids)
         lb = self.lower[ids]
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(true > 0, lb / np.where(true > 0, true, 1.0),

@@ -123,9 +123,15 @@ class Roadmap:
         """Directed edge costs the search uses (J): E⁺ summed over joints (the paper), or
         the supply energy, reweighted by the node potential when regeneration can make
         it negative: c + φ(src) − φ(dst), ≥ 0 (docs/design.md §3h)."""
+        return self.edge_costs(np.arange(self.num_edges))
+
+    def edge_costs(self, ids: np.ndarray) -> np.ndarray:
+        """:attr:`cost` of the edges ``ids`` only (NaN where not evaluated)."""
+        ids = np.asarray(ids, dtype=np.int64)
         if self.supply.is_default:
-            return self.energy.sum(axis=1)
-        return reweighted(self.supply_energy, self.potential, self.src, self.dst)
+            return self.energy[ids].sum(axis=1)
+        c = supply_energy(self.supply, self.energy[ids], self._bus()[ids])
+        return reweighted(c, self.potential, self.src[ids], self.dst[ids])
 
     def _bus(self) -> np.ndarray:
         if self.bus is None:
@@ -668,11 +674,33 @@ def build_roadmap(
 def reweighted(c: np.ndarray, potential: np.ndarray | None, src: np.ndarray,
                dst: np.ndarray) -> np.ndarray:
     """c + φ(src) − φ(dst) (J), the search's cost of edges priced ``c`` (docs/design.md
-    §3h); ``c`` itself without a potential. NaN (not evaluated) and ∞ stay so."""
+    §3h); ``c`` itself without a potential. NaN (not evaluated) and ∞ stay so.
+
+    The potential makes every cost ≥ 0 up to the end current's tracking residual; a
+    reweighted cost below 0 by more than round-off (1e-9 of the terms) raises
+    ValueError, since the searches need costs ≥ 0 and clipping would change the
+    optimum; round-off below 0 is set to 0."""
     c = np.asarray(c, float)
     if potential is None:
         return c
-    return c + (potential[src] - potential[dst])
+    phi0, phi1 = potential[src], potential[dst]
+    out = c + (phi0 - phi1)
+    with np.errstate(invalid="ignore"):
+        low = out < 0.0
+    if low.any():
+        tol = 1e-9 * (np.abs(c) + np.abs(phi0) + np.abs(phi1))
+        bad = low & (out < -tol)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise ValueError(
+                f"an edge from node {int(src[k])} to node {int(dst[k])} costs "
+                f"{float(c[k]):.6g} J, below the potential difference "
+                f"{float(phi1[k] - phi0[k]):.6g} J that makes costs with regeneration "
+                "non-negative (docs/design.md §3h): the motors' Ke/Kt differ between "
+                "joints or the edge ends far from rest; use regeneration = 0 or motors "
+                "with one Ke/Kt")
+        out = np.where(low, 0.0, out)
+    return out
 
 
 def attach_supply(roadmap: Roadmap, drive) -> Roadmap:

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from .config import ConfigError
-from .motion_step import RunMotion
+from .motion_step import RunMotion, path_supply_energy
 from .outputs import (
     make_figures,
     result_record,
@@ -65,7 +65,8 @@ def check_output_dir(out_dir: Path) -> bool:
 @dataclass(frozen=True)
 class RoadmapPath:
     """The MPD* Lite optimum on the roadmap, stop-and-go: ``nodes`` (roadmap node ids),
-    ``configurations`` (n, nq) rad, ``energy_per_joint`` (nq,) E⁺ J, ``total_energy`` J,
+    ``configurations`` (n, nq) rad, ``energy_per_joint`` (nq,) E⁺ J, ``total_energy`` J
+    (the supply energy, docs/design.md §3h),
     ``length_rad`` (Σ‖Δq‖₂, rad)."""
 
     nodes: list[int]
@@ -95,9 +96,11 @@ class _Parts:
 
 
 class Plan:
-    """One planned query (module docstring). Energies are E⁺ (J), times s, angles rad.
+    """One planned query (module docstring). Energies are J, times s, angles rad.
 
-    ``total_energy`` / ``energy_per_joint``: the returned motion's; ``path``: its
+    ``total_energy``: the energy the returned motion draws from the supply (Σ E⁺ per joint
+    with the paper's per-joint supplies, docs/design.md §3h); ``energy_per_joint``: its E⁺
+    per joint; ``path``: its
     waypoints (n, nq); ``motion``: the :class:`~mpd_pin.motion.MotionEnergy` (execution
     ``stop``/``nonstop``, ``duration``, ``stops``, …); ``roadmap_path``: the
     :class:`RoadmapPath` behind it; ``comparison``: result.json's ``comparison`` (the
@@ -119,7 +122,7 @@ class Plan:
             nodes=[int(n) for n in p.result.path],
             configurations=roadmap.nodes[p.result.path],
             energy_per_joint=np.asarray(p.result.energy, dtype=float),
-            total_energy=float(np.sum(p.result.energy)),
+            total_energy=path_supply_energy(roadmap, p.result.path, p.result.energy),
             length_rad=path_length(roadmap, p.result.path, p.scenario.arm),
         )
         self.comparison = p.comparison

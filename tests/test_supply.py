@@ -1,0 +1,190 @@
+"""A shared DC bus with regeneration, planned (docs/design.md §3h).
+
+The references are independent of the planner: networkx Bellman–Ford on the saved roadmap's
+raw supply energies (negative ones included, no reweighting), and ``simulate_edge`` edge by
+edge for the reported energies. The supply energy itself is checked against a sympy model
+of the bus power in ``test_supply_sympy.py``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import json
+
+import networkx as nx
+import numpy as np
+import pytest
+
+import mpd_pin as mp
+from mpd_pin.dynamics.supply import node_potential
+from mpd_pin.planning.roadmap import Roadmap, reweighted
+
+try:  # tests/ is on sys.path under pytest's default import mode
+    from conftest import run_cli, run_once
+except ImportError:  # pragma: no cover
+    from tests.conftest import run_cli, run_once
+
+SHARED = mp.Supply("shared", 0.6)
+
+
+def _shared_scenario(supply: mp.Supply = SHARED):
+    return dataclasses.replace(mp.load_scenario("quickstart"), supply=supply)
+
+
+@functools.cache
+def _eager_shared(tmp_dir: str):
+    """Quickstart on a shared bus with η = 0.6, every edge simulated; the roadmap saved."""
+    cache = f"{tmp_dir}/rm.npz"
+    plan = mp.plan(_shared_scenario(), cache=cache, show_progress=False, evaluation="eager",
+                   collision="eager")
+    return plan, Roadmap.load(cache)
+
+
+@pytest.fixture(scope="module")
+def eager_shared(tmp_path_factory):
+    return _eager_shared(str(tmp_path_factory.mktemp("supply")))
+
+
+def test_optimum_equals_bellman_ford_on_the_raw_supply_energies(eager_shared):
+    """The planner searches c + φ(u) − φ(v); Bellman–Ford on the raw costs c (some < 0) must
+    find a path of the same cost, and the planner's path costs exactly that."""
+    plan, rm = eager_shared
+    eta = SHARED.regeneration
+    c = rm.bus[:, 0] - eta * rm.bus[:, 1]
+    assert np.isfinite(c).all()
+    assert (c < 0).sum() > 20  # regeneration makes many edges pay back: the case is real
+    G = nx.DiGraph()
+    for u, v, w in zip(rm.src.tolist(), rm.dst.tolist(), c.tolist(), strict=True):
+        G.add_edge(u, v, weight=w)
+    ref_cost, ref_path = nx.single_source_bellman_ford(G, rm.start, rm.goal)
+    nodes = plan.roadmap_path.nodes
+    ids = rm.edge_ids(nodes)
+    assert float(c[ids].sum()) == pytest.approx(ref_cost, rel=1e-9, abs=1e-9)
+    assert plan.roadmap_path.total_energy == pytest.approx(ref_cost, rel=1e-9, abs=1e-9)
+    assert plan.roadmap_path.nodes == ref_path or float(c[rm.edge_ids(ref_path)].sum()) \
+        == pytest.approx(ref_cost, rel=1e-12)
+
+
+def test_reweighted_costs_are_non_negative_and_shift_every_path_equally(eager_shared):
+    """c′ = c + φ(u) − φ(v) ≥ 0 on every simulated edge (the potential of §3h is a true
+    lower bound there), and a path's c′ is its c plus φ(start) − φ(goal)."""
+    plan, rm = eager_shared
+    drive = _shared_scenario().drive()
+    phi = node_potential(drive, rm.nodes)
+    c = rm.bus[:, 0] - SHARED.regeneration * rm.bus[:, 1]
+    raw = c + phi[rm.src] - phi[rm.dst]
+    assert raw.min() > 0.0  # measured: no edge needs the round-off rule
+    rng = np.random.default_rng(0)
+    G = nx.DiGraph()
+    G.add_edges_from(zip(rm.src.tolist(), rm.dst.tolist(), strict=True))
+    for _ in range(5):
+        path = nx.shortest_path(G, rm.start, int(rng.integers(2, rm.num_nodes)))
+        ids = rm.edge_ids(path)
+        shift = phi[path[0]] - phi[path[-1]]
+        assert raw[ids].sum() == pytest.approx(c[ids].sum() + shift, rel=1e-12, abs=1e-9)
+
+
+def test_lazy_search_finds_the_eager_optimum(eager_shared, tmp_path):
+    """Lazy evaluation (bounds of the reweighted cost) gives the same path and energy."""
+    plan, rm = eager_shared
+    lazy = mp.plan(_shared_scenario(), show_progress=False, evaluation="lazy",
+                   collision="eager")
+    assert lazy.roadmap_path.nodes == plan.roadmap_path.nodes
+    assert lazy.roadmap_path.total_energy == pytest.approx(plan.roadmap_path.total_energy,
+                                                           rel=1e-12)
+    rec = lazy.to_dict()["roadmap"]["lazy"]
+    assert rec["simulated"] < 0.2 * rm.num_edges
+    assert rec["bound_violations"] == 0
+
+
+def test_reported_energies_resimulated_edge_by_edge(eager_shared):
+    """The acceptance of the issue: the roadmap path re-simulated edge by edge gives the
+    reported energy, the returned motion re-priced gives its total, and result.json says
+    which supply priced them."""
+    plan, rm = eager_shared
+    drive = _shared_scenario().drive()
+    nodes = plan.roadmap_path.nodes
+    total = 0.0
+    for e in rm.edge_ids(nodes):
+        sim = mp.simulate_edge(drive, rm.nodes[rm.src[e]], rm.nodes[rm.dst[e]],
+                               float(rm.durations[e]), 5e-3)
+        total += sim.supply_energy
+    assert total == pytest.approx(plan.roadmap_path.total_energy, rel=1e-9)
+    d = plan.to_dict()
+    assert d["supply"] == {"bus": "shared", "regeneration": 0.6}
+    assert d["verification"]["total_energy_simulate_edge"] == pytest.approx(total, rel=1e-12)
+    by = d["energy_by_supply"]
+    assert by["shared_regeneration"] == pytest.approx(plan.total_energy, rel=1e-12)
+    assert by["shared_regeneration"] < by["shared"] < by["per_joint"]
+    m = plan.motion
+    again = mp.trajectory_energy(drive, m.waypoints, m.execution, options=_shared_scenario()
+                                 .options)
+    assert again.total_energy == pytest.approx(plan.total_energy, rel=1e-9)
+    b = np.asarray(d["motion"]["bus_energy"])
+    assert b[0] - 0.6 * b[1] == pytest.approx(plan.total_energy, rel=1e-12)
+
+
+def test_scenario_file_supply_and_trajectory_power(tmp_path_factory):
+    """``[supply]`` in a TOML file reaches the run; trajectory.csv has P_bus = Σ V·i, and its
+    integral over the file's samples gives the motion's energy."""
+    from mpd_pin.app.scenario import resolve_scenario
+
+    text = resolve_scenario("quickstart").read_text()
+    path = tmp_path_factory.mktemp("bus") / "qs_bus.toml"
+    path.write_text(text + '\n[supply]\nbus = "shared"\nregeneration = 0.6\n')
+    res, out = run_once(tmp_path_factory, path, "--no-replay", "--quiet")
+    assert res.returncode == 0, res.stderr
+
+    r = json.loads((out / "result.json").read_text())
+    assert r["supply"] == {"bus": "shared", "regeneration": 0.6}
+    data = np.genfromtxt(out / "trajectory.csv", delimiter=",", names=True)
+    names = r["joint_names"]
+    V = np.stack([data[f"V_{n}"] for n in names], axis=1)
+    i = np.stack([data[f"i_{n}"] for n in names], axis=1)
+    np.testing.assert_allclose(data["P_bus"], (V * i).sum(axis=1), rtol=1e-8, atol=1e-8)
+    p = data["P_bus"]
+    drawn = np.trapezoid(np.maximum(p, 0) - 0.6 * np.maximum(-p, 0), data["t"])
+    assert drawn == pytest.approx(r["total_energy"], rel=2e-2)  # trapezoid over the samples
+
+
+def test_paper_supply_keeps_the_old_key_and_costs():
+    """The default supply adds nothing to the roadmap key or the cost: paper energies and
+    cache files stay what they were."""
+    scn = mp.load_scenario("case1")
+    d0 = scn.drive()
+    assert "supply" not in d0.describe()
+    d1 = dataclasses.replace(scn, supply=mp.Supply("shared", 0.0)).drive()
+    assert d1.describe()["supply"] == {"bus": "shared", "regeneration": 0.0}
+
+
+def test_reweighted_refuses_a_real_negative_and_zeroes_round_off():
+    """A reweighted cost below 0 by more than round-off is an error (clipping would change
+    the optimum); one below 0 by round-off only becomes 0."""
+    src, dst = np.array([0, 1]), np.array([1, 2])
+    ok = reweighted(np.array([1.0, 2.5]), np.array([0.0, 1.0 + 1e-15, 3.5]), src, dst)
+    assert ok[0] == 0.0  # 1 − (1 + 1e-15): below 0 by round-off only
+    assert 0.0 <= ok[1] < 1e-14  # 2.5 + (1 + 1e-15) − 3.5
+    with pytest.raises(ValueError, match="from node 1 to node 2 costs -5 J"):
+        reweighted(np.array([1.0, -5.0]), np.array([0.0, 1.0, 3.0]), src, dst)
+    assert reweighted(np.array([-1.0]), None, src[:1], dst[:1]).tolist() == [-1.0]
+
+
+@pytest.mark.parametrize("body, key", [
+    ('bus = "dc"', "supply.bus"),
+    ('bus = "shared"\nregeneration = 1.5', "supply.regeneration"),
+    ('bus = "shared"\nregeneration = -0.1', "supply.regeneration"),
+    ("regeneration = 0.3", "supply.regeneration"),
+    ('bus = "shared"\nregen = 0.3', "supply: unknown key(s) 'regen'"),
+])
+def test_bad_supply_gets_one_line_naming_the_key(tmp_path, body, key):
+    from mpd_pin.app.scenario import resolve_scenario
+
+    path = tmp_path / "bad.toml"
+    path.write_text(resolve_scenario("quickstart").read_text() + f"\n[supply]\n{body}\n")
+    res = run_cli("run", path, "--out", tmp_path / "out")
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("mpd-pin: error: "), res.stderr
+    assert key in lines[0], lines[0]
+    assert not (tmp_path / "out").exists()

@@ -65,8 +65,7 @@ for name, leg in (("A -> B", first), ("B -> C", second)):
 one, two = first.to_dict(), second.to_dict()
 assert two["roadmap"]["num_nodes"] == one["roadmap"]["num_nodes"] + 1  # C only: B is a node
 assert two["roadmap"]["lazy"]["reused"] >= one["roadmap"]["lazy"]["simulated"]
-assert two["cpu_seconds_per_phase"]["roadmap"] < one["cpu_seconds_per_phase"]["roadmap"]
-assert second.seconds < first.seconds, (second.seconds, first.seconds)
+# (the second leg's roadmap phase is cheaper too, but times are for bench/, not for asserts)
 
 # 3. The roadmap path priced stop-and-go equals its roadmap energy.
 rp = second.roadmap_path

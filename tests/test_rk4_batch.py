@@ -99,7 +99,7 @@ def _record(drive: mp.Drive, Q0, Q1, T):
 def _series_digests(drive: mp.Drive, Q0, Q1, T) -> list[str]:
     """SHA-256 of each recorded series (q, v, i, V, E⁺(t), E(t)) and of the outcomes."""
     outcomes, rec = _record(drive, Q0, Q1, T)
-    # the five outcomes the fixture's code had (the bus energies came later, §3h)
+    # the five outcomes the fixture's code had (the bus energies came later, §3i)
     arrays = [*outcomes[:5], rec.q, rec.v, rec.i, rec.V, rec.energy_t, rec.net_energy_t]
     return [_digest(a) for a in arrays]
 
@@ -220,7 +220,7 @@ def test_fixture_covers_the_branches(reference):
         cs = current_step(_drive(case), DT)
         assert cs.stiff.tolist() == stiff, case
     assert [bool(ref[f"{c}/saturates"]) for c in sorted(CASES)] == [True, False, True, True]
-    # the fixture holds the outcomes of its time, every field but the bus energies (§3h)
+    # the fixture holds the outcomes of its time, every field but the bus energies (§3i)
     assert [f.name for f in fields(EdgeOutcomes)] == [*FIELDS, "bus_energy"]
     assert all(ref[f"case1/{f}"].shape == ref["case1/energy"].shape for f in FIELDS)
 

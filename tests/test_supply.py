@@ -1,4 +1,4 @@
-"""A shared DC bus with regeneration, planned (docs/design.md §3h).
+"""A shared DC bus with regeneration, planned (docs/design.md §3i).
 
 The references are independent of the planner: networkx Bellman–Ford on the saved roadmap's
 raw supply energies (negative ones included, no reweighting), and ``simulate_edge`` edge by
@@ -67,7 +67,7 @@ def test_optimum_equals_bellman_ford_on_the_raw_supply_energies(eager_shared):
 
 
 def test_reweighted_costs_are_non_negative_and_shift_every_path_equally(eager_shared):
-    """c′ = c + φ(u) − φ(v) ≥ 0 on every simulated edge (the potential of §3h is a true
+    """c′ = c + φ(u) − φ(v) ≥ 0 on every simulated edge (the potential of §3i is a true
     lower bound there), and a path's c′ is its c plus φ(start) − φ(goal)."""
     plan, rm = eager_shared
     drive = _shared_scenario().drive()

@@ -1,4 +1,4 @@
-"""Supply energies (per-joint, shared DC bus, regeneration) against sympy (docs/design.md §3h).
+"""Supply energies (per-joint, shared DC bus, regeneration) against sympy (docs/design.md §3i).
 
 The reference extends the independent sympy model of ``test_energy_sympy`` (rigid body from
 the hand-read URDF, motor equations, quintic reference and feed-forward in sympy, a plain

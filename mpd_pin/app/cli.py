@@ -167,7 +167,8 @@ def cmd_energy(args: argparse.Namespace) -> int:
     motion = trajectory_energy(scn.drive(), pf.waypoints, args.execution, options=scn.options,
                                checker=checker, max_duration=max_duration)
     doc = {"scenario": scn.name, "pathfile": str(pathfile), "joint_names": names,
-           **motion.to_dict()}
+           **motion.to_dict(), "supply": motion.supply.describe(),
+           "energy_by_supply": motion.energy_by_supply()}
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         write_json(out, doc)

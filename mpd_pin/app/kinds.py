@@ -73,6 +73,11 @@ def _run_energy(scn, out_dir: Path, *, show_progress: bool, cache: Path | None, 
 
 def _summary_energy(scn, result: dict[str, Any], out_dir: Path) -> str:
     per_joint = ", ".join(f"{e:.4g}" for e in result["energy_per_joint"])
+    supply = result.get("supply") or {"bus": "per_joint"}
+    if supply["bus"] != "per_joint":  # the total is the bus's; the joints' E⁺ would not sum
+        eta = supply["regeneration"]
+        per_joint = (f"shared bus{f', regeneration {eta:g}' if eta else ''}; per-joint "
+                     f"supplies would draw {result['energy_by_supply']['per_joint']:.4g} J")
     cache = result["roadmap"].get("cache") or {}
     if cache.get("path"):  # the roadmap file: reused, or built and saved to it
         how = "reused from" if cache.get("reused") else "saved to"

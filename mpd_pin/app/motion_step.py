@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..dynamics.supply import supply_energy, supply_power
+from ..dynamics.supply import supply_power
 from ..motion.energy import MotionEnergy, check_waypoints
 from ..motion.refine import NoFeasibleMotion, RefinedMotion, refine_candidates
 from ..motion.series import motion_series
@@ -68,7 +68,7 @@ class RunMotion:
         t, V, i = self.series["t"], self.series["V"], self.series["i"]
         sampled = np.trapezoid(np.maximum(V * i, 0.0), t, axis=0) if len(t) > 1 else 0 * V[0]
         drawn = (float(np.trapezoid(supply_power(m.supply, V * i), t)) if len(t) > 1
-                 else 0.0)  # the sampled supply energy (= Σ sampled per joint, §3h)
+                 else 0.0)  # the sampled supply energy (= Σ sampled per joint, §3i)
         total = float(m.total_energy)
         out = {
             **m.to_dict(),
@@ -105,10 +105,10 @@ def roadmap_motion(drive, setup: Setup, plan: PlanResult, check: Verification) -
 
 def path_supply_energy(roadmap, path: list[int], energy: np.ndarray) -> float:
     """The supply energy (J) of a roadmap node path whose E⁺ per joint is ``energy``:
-    their sum with a supply per joint (the paper), else the bus's (docs/design.md §3h)."""
+    their sum with a supply per joint (the paper), else the bus's (docs/design.md §3i)."""
     if roadmap.supply.is_default:
-        return float(np.sum(energy))
-    return float(supply_energy(roadmap.supply, energy, roadmap.path_bus(path)))
+        return float(np.sum(energy))  # the sum of ``energy`` as given, bit for bit
+    return roadmap.path_supply_energy(path)
 
 
 def _checker(scn: EnergyScenario, setup: Setup):

@@ -187,18 +187,20 @@ def make_figures(
     ]
     names = scn.arm.joint_names
     others = {k: roadmap.nodes[v] for k, v in plan.other_paths.items()}
+    supply = setup.drive.supply
     compare = None
     if shortest is not None:
         sp, sc = shortest
-        label = f"{SHORTEST_LABEL} ({float(sp.energy.sum()):.4g} J)"
+        e_short = path_supply_energy(roadmap, sp.path, sp.energy)
+        label = f"{SHORTEST_LABEL} ({e_short:.4g} J)"
         others[label] = roadmap.nodes[sp.path]
-        compare = (sc.series["t"], sc.series["energy_t"].sum(axis=1), SHORTEST_LABEL)
+        compare = (sc.series["t"], _drawn(supply, sc.series), SHORTEST_LABEL)
     Q_nodes = roadmap.nodes[path]
-    title = f"{scn.name}: {float(plan.energy.sum()):.4g} J, {len(path)} nodes"
+    e_plan = path_supply_energy(roadmap, path, plan.energy)
+    title = f"{scn.name}: {e_plan:.4g} J, {len(path)} nodes"
     if motion is not None and motion.refined is not None:
         Q_nodes = motion.energy.waypoints
-        others[f"roadmap path (MPD* Lite, {float(plan.energy.sum()):.4g} J)"] = (
-            roadmap.nodes[path])
+        others[f"roadmap path (MPD* Lite, {e_plan:.4g} J)"] = roadmap.nodes[path]
         title = (f"{scn.name}: {motion.energy.total_energy:.4g} J {motion.energy.execution}, "
                  f"{len(Q_nodes)} waypoints")
     # the paper motor's warning (run_warnings) on every figure that shows its energies
@@ -219,6 +221,8 @@ def make_figures(
         ),
         "energy.png": plot_cumulative_energy(
             series["t"], series["energy_t"], names, compare=compare,
+            supply=None if supply.is_default else (_drawn(supply, series),
+                                                   _supply_label(supply)),
             title=("cumulative electrical energy per joint" + note) if note else "",
             marks=[(d.t, "replan: " + ", ".join(repr(n) for n in d.names) + " sensed")
                    for d in detections],
@@ -229,6 +233,19 @@ def make_figures(
         figs["energy_duration.png"] = plot_energy_duration(*curve[:3], ideal=curve[3],
                                                            title=scn.name + note)
     return figs
+
+
+def _drawn(supply, series: dict[str, np.ndarray]) -> np.ndarray:
+    """The cumulative energy drawn from ``supply`` (J) along a series (§3i)."""
+    if supply.is_default:
+        return series["energy_t"].sum(axis=1)
+    bus = series["bus_energy_t"]
+    return bus[:, 0] - supply.regeneration * bus[:, 1]
+
+
+def _supply_label(supply) -> str:
+    eta = supply.regeneration
+    return "shared bus" + (f", {eta:.0%} regenerated" if eta else "")
 
 
 def write_plots(out_dir: Path, *args: Any, **kwargs: Any) -> list[str]:

@@ -191,9 +191,7 @@ def distance_roadmap(roadmap: Roadmap, arm: Arm | None = None) -> Roadmap:
     :func:`edge_lengths` with ``arm``), carried in the first column of ``energy`` (the
     others 0), so that ``graph()``, hazard penalties and execution plan on distance. Only
     for planning: energies come from ``roadmap``."""
-    cost = np.zeros_like(np.asarray(roadmap.energy, dtype=float))
-    cost[:, 0] = edge_lengths(roadmap, arm)
-    return replace(roadmap, energy=cost)
+    return roadmap.with_costs(edge_lengths(roadmap, arm))
 
 
 def plan_path(scn: EnergyScenario, setup: Setup) -> PlanResult:

@@ -66,7 +66,7 @@ def check_output_dir(out_dir: Path) -> bool:
 class RoadmapPath:
     """The MPD* Lite optimum on the roadmap, stop-and-go: ``nodes`` (roadmap node ids),
     ``configurations`` (n, nq) rad, ``energy_per_joint`` (nq,) E⁺ J, ``total_energy`` J
-    (the supply energy, docs/design.md §3h),
+    (the supply energy, docs/design.md §3i),
     ``length_rad`` (Σ‖Δq‖₂, rad)."""
 
     nodes: list[int]
@@ -99,7 +99,7 @@ class Plan:
     """One planned query (module docstring). Energies are J, times s, angles rad.
 
     ``total_energy``: the energy the returned motion draws from the supply (Σ E⁺ per joint
-    with the paper's per-joint supplies, docs/design.md §3h); ``energy_per_joint``: its E⁺
+    with the paper's per-joint supplies, docs/design.md §3i); ``energy_per_joint``: its E⁺
     per joint; ``path``: its
     waypoints (n, nq); ``motion``: the :class:`~mpd_pin.motion.MotionEnergy` (execution
     ``stop``/``nonstop``, ``duration``, ``stops``, …); ``roadmap_path``: the

@@ -50,7 +50,7 @@ A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
     [limits]                   # fill/override URDF joint limits (rad/s, N·m), by joint name
     joint2 = { velocity = 2.0, effort = 30.0 }
 
-    [supply]                   # how the drives are fed (docs/design.md §3h)
+    [supply]                   # how the drives are fed (docs/design.md §3i)
     bus = "per_joint"          # or "shared": one DC bus feeding every drive
     regeneration = 0.0         # η in [0, 1], share of braking energy returned (shared only)
 
@@ -147,7 +147,7 @@ class EnergyScenario:
     motion: MotionOptions = field(default_factory=MotionOptions)
     #: "lazy" (certify the edges the search needs) or "eager" (docs/design.md §4g)
     collision: str = "lazy"
-    #: how the drives are fed: per joint (paper 000) or a shared DC bus (§3h)
+    #: how the drives are fed: per joint (paper 000) or a shared DC bus (§3i)
     supply: Supply = PER_JOINT
 
     def drive(self) -> Drive:
@@ -605,7 +605,7 @@ def parse_energy_scenario(
 
 def _supply(t: Table) -> Supply:
     """``[supply]``: ``bus`` ("per_joint" or "shared") and ``regeneration`` η ∈ [0, 1]
-    (docs/design.md §3h)."""
+    (docs/design.md §3i)."""
     bus = t.string("bus", "per_joint", choices=BUSES)
     eta = t.number("regeneration", 0.0, minimum=0.0, maximum=1.0)
     t.done()

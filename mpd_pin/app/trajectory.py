@@ -3,7 +3,7 @@
 * ``trajectory.csv`` (:func:`write_trajectory_csv`) — the simulated motion at the RK4
   step: ``t`` (s), then for each joint ``q_<joint>`` (rad), ``v_<joint>`` (rad/s),
   ``i_<joint>`` (A), ``V_<joint>`` (V), ``tau_<joint>`` (motor torque at the joint
-  n·Kt·i, N·m), then ``P_bus`` (W), the bus power Σ_k V_k·i_k (docs/design.md §3h).
+  n·Kt·i, N·m), then ``P_bus`` (W), the bus power Σ_k V_k·i_k (docs/design.md §3i).
   One time base: t = 0 at the start node, no duplicate sample at the
   joins of edges (:func:`~mpd_pin.app.verify.simulate_path`). A continuous joint's
   angle is continuous in time (unwrapped, docs/design.md §1d): it may leave [−π, π]

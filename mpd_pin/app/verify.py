@@ -29,7 +29,7 @@ def simulate_path(
 
     Returns t (s), q (rad), v (rad/s), i (A), V (V), energy_t (cumulative E⁺ per joint, J),
     energy per edge (E⁺ per joint, J), bus_energy_t and edge_bus (the same for the shared
-    bus's [B⁺, B⁻], J, docs/design.md §3h) and the node times (s). One time base: t = 0 at the
+    bus's [B⁺, B⁻], J, docs/design.md §3i) and the node times (s). One time base: t = 0 at the
     start node, each later edge's first sample dropped (the previous edge's end stands for
     it); the start sample is the first edge's (at rest, holding: i = G(q)/(n·Kt)). A
     one-node path is that holding state alone (V = R·i with feed-forward, else 0).
@@ -103,7 +103,7 @@ def straight_line_configurations(
 class Verification:
     """The path re-simulated: ``series`` (see :func:`simulate_path`), the recomputed
     E⁺ per joint (J) and its agreement with the roadmap's energy; the recomputed bus
-    energies [B⁺, B⁻] (J) and the supply that prices them (docs/design.md §3h)."""
+    energies [B⁺, B⁻] (J) and the supply that prices them (docs/design.md §3i)."""
 
     series: dict[str, np.ndarray]
     energy_per_joint: np.ndarray

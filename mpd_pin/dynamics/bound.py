@@ -214,7 +214,7 @@ class EnergyBound:
 
     def _bus_bound(self, p: dict, Q0: np.ndarray, Q1: np.ndarray,
                    potential: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
-        """The shared bus (docs/design.md §3h). Per piece I_p of the edge, S_p estimates
+        """The shared bus (docs/design.md §3i). Per piece I_p of the edge, S_p estimates
         ∫_{I_p} P dt = Σ_k ∫_{I_p} V_k i_k dt by (1) summed over the joints; since
         ∫ max(±P, 0) ≥ Σ_p max(±S_p, 0) and B⁺ − η B⁻ = ∫ P + (1 − η) B⁻,
 

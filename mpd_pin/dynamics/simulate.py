@@ -10,7 +10,7 @@ tracks a quintic rest-to-rest reference ``q_ref = q⁰ + (q¹ − q⁰) s(t/T)``
 :class:`mpd_pin.Drive`. Classic fixed-step RK4 integrates it together with the
 energies ``E⁺ = ∫ max(V i, 0) dt`` (the edge cost, no regeneration) and
 ``E = ∫ V i dt`` (net), and the shared bus's ``B⁺ = ∫ max(P, 0) dt`` and
-``B⁻ = ∫ max(−P, 0) dt`` with ``P = Σ_k V_k i_k`` (docs/design.md §3h). The
+``B⁻ = ∫ max(−P, 0) dt`` with ``P = Σ_k V_k i_k`` (docs/design.md §3i). The
 controller is evaluated as a continuous function of (t, x) inside every RK4
 stage, so the feed-forward is needed at the half-step grid ``t = j·dt/2``.
 
@@ -180,7 +180,7 @@ class EdgeSimulation:
 
     @property
     def supply_energy(self) -> float:
-        """Energy drawn from the supply (J) under :attr:`supply` (docs/design.md §3h):
+        """Energy drawn from the supply (J) under :attr:`supply` (docs/design.md §3i):
         Σ E⁺ per joint, or B⁺ − η B⁻ on a shared bus. The planner's edge cost."""
         return float(supply_energy(self.supply, self.energy, self.bus_energy))
 
@@ -389,7 +389,7 @@ class EdgeOutcomes:
     torque at the joint, |n Kt i| (N·m). The feasibility rules of docs/design.md §3g read
     the last three: a motion that does not arrive, or needs more torque than the joint
     may take, is not an edge. bus_energy (K, 2): [B⁺, B⁻] of the shared bus (J,
-    docs/design.md §3h).
+    docs/design.md §3i).
     """
 
     energy: np.ndarray

@@ -1,4 +1,4 @@
-"""How the drives are fed: one supply per joint, or one shared DC bus (docs/design.md §3h).
+"""How the drives are fed: one supply per joint, or one shared DC bus (docs/design.md §3i).
 
 Paper 000 prices a motion as if every joint had its own supply that burns what its
 motor gives back: E⁺ = Σ_k ∫ max(V_k i_k, 0) dt. Industrial and collaborative arms
@@ -13,7 +13,7 @@ B⁺ and B⁻ are integrated as two RK4 states beside E⁺ (:mod:`mpd_pin.dynami
 
 With η > 0 an edge that lowers the arm can cost less than zero, which D* Lite, MPD*
 Lite and Dijkstra do not allow. :func:`node_potential` gives φ(q) with
-c(u→v) ≥ φ(v) − φ(u) for every rest-to-rest edge (docs/design.md §3h), so the search
+c(u→v) ≥ φ(v) − φ(u) for every rest-to-rest edge (docs/design.md §3i), so the search
 runs on c′ = c + φ(u) − φ(v) ≥ 0; every start-to-goal path changes by the same
 φ(start) − φ(goal), so the optimum is the same path.
 """
@@ -69,7 +69,7 @@ class Supply:
 
     @property
     def needs_potential(self) -> bool:
-        """Edge costs can be negative (η > 0): the search reweights them (§3h)."""
+        """Edge costs can be negative (η > 0): the search reweights them (§3i)."""
         return self.bus == "shared" and self.regeneration > 0.0
 
     def describe(self) -> dict:
@@ -117,7 +117,7 @@ def node_potential(drive, Q: np.ndarray) -> np.ndarray:
     holding current at u, so c(u→v) ≥ φ(v) − φ(u) up to ½ L (i(T)² − i_hold(v)²), the
     end current's tracking residual (checked on every evaluated edge,
     :mod:`mpd_pin.planning.roadmap`). Where Ke/Kt differs between joints the smallest
-    ratio is used and the check is all that stands behind it (docs/design.md §3h).
+    ratio is used and the check is all that stands behind it (docs/design.md §3i).
     """
     from .bound import _gravity, _potential
 

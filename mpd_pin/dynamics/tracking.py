@@ -8,7 +8,7 @@ the motor-augmented ODE with classic RK4 through ``pin.abaInParallel``. The stat
 all motions is one preallocated array X = [q, q̇, i, E⁺, E] of shape (5, K, nq) (each
 row block C-contiguous, so its transpose is the (nq, K) Fortran array Pinocchio wants),
 and the shared bus's B = [B⁺, B⁻] = [∫ max(P, 0), ∫ max(−P, 0)], P = Σ_k V_k i_k, of shape
-(2, K) (docs/design.md §3h);
+(2, K) (docs/design.md §3i);
 stage derivatives are written in place, the accelerations straight into them by
 ``abaInParallel``; a stage computes V = sat(W − Kp q − Kd q̇). The rest-to-rest
 quintic edges of :mod:`mpd_pin.dynamics.simulate` and the non-stop motions of

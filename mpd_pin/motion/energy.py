@@ -91,14 +91,14 @@ class MotionEnergy:
     fastest: float = 0.0
     #: a straight segment between the waypoints failed the certified check
     colliding: bool = False
-    #: [B⁺, B⁻] of the shared bus over the motion (J, docs/design.md §3h)
+    #: [B⁺, B⁻] of the shared bus over the motion (J, docs/design.md §3i)
     bus_energy: np.ndarray = field(default_factory=lambda: np.zeros(2))
     #: the supply ``total_energy`` is priced with (the drive's)
     supply: Supply = PER_JOINT
 
     def energy_by_supply(self) -> dict[str, float]:
         """This motion's energy (J) per joint, on a shared bus, and on a shared bus with
-        this supply's regeneration (docs/design.md §3h)."""
+        this supply's regeneration (docs/design.md §3i)."""
         return energy_by_supply(self.energy_per_joint, self.bus_energy,
                                 self.supply.regeneration)
 
@@ -327,7 +327,7 @@ def _ideal_curve(grid: np.ndarray, energy: np.ndarray) -> list[tuple[float, floa
 
 def ideal_nonstop(drive: Drive, vs: ViaSpline, durations: np.ndarray, samples: int = 256
                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Perfect-tracking supply energy (J; Σ E⁺ over joints with a supply per joint, §3h) of
+    """Perfect-tracking supply energy (J; Σ E⁺ over joints with a supply per joint, §3i) of
     the spline ``vs`` stretched to each duration (s), by Simpson's rule over ``samples`` +
     1 points, and the peak feed-forward torque per joint (N·m), (K, nq) — a screen for the
     duration search (§9c)."""

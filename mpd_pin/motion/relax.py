@@ -37,7 +37,7 @@ __all__ = ["RelaxResult", "relax_path"]
 class RelaxResult:
     """The relaxed waypoints (m+1, nq) rad, their stop-and-go E⁺ per joint (J), the supply
     energy of the path given (J), the via points moved, the edges simulated, the bus
-    energies [B⁺, B⁻] (J) and the supply that prices them (docs/design.md §3h)."""
+    energies [B⁺, B⁻] (J) and the supply that prices them (docs/design.md §3i)."""
 
     waypoints: np.ndarray
     energy_per_joint: np.ndarray

@@ -57,7 +57,7 @@ def _pieces(drive: Drive, m: MotionEnergy, dt: float):
 
 def motion_series(drive: Drive, m: MotionEnergy, dt: float) -> dict[str, np.ndarray]:
     """t (s), q (rad), v (rad/s), i (A), V (V), energy_t (cumulative E⁺ per joint, J),
-    bus_energy_t (cumulative [B⁺, B⁻] of the shared bus, J, docs/design.md §3h),
+    bus_energy_t (cumulative [B⁺, B⁻] of the shared bus, J, docs/design.md §3i),
     piece_energy (E⁺ per joint of each piece, J) and node_times (s, when the motion passes
     each waypoint) of the motion ``m`` (RK4 step ``dt`` s)."""
     cols: dict[str, list] = {k: [] for k in ("t", "q", "v", "i", "V", "energy_t",

@@ -41,7 +41,7 @@ class ShortcutResult:
     """The shortcut path (waypoints (m+1, nq) rad), its stop-and-go E⁺ (J) per joint,
     the supply energy of the path it started from (J), the rounds run, the pairs certified
     and the edges simulated, the bus energies [B⁺, B⁻] (J) and the supply that prices it
-    (docs/design.md §3h)."""
+    (docs/design.md §3i)."""
 
     waypoints: np.ndarray
     energy_per_joint: np.ndarray
@@ -75,7 +75,7 @@ def _edge_costs(drive: Drive, P: np.ndarray, I: np.ndarray, J: np.ndarray, optio
     whether each is feasible by the roadmap's rules (docs/design.md §4e), how many were
     simulated (the others come from ``memo``, shared with
     :func:`~mpd_pin.motion.energy.trajectory_energy`), their bus energies (K, 2) and
-    their supply energies (K,) J (the cost, docs/design.md §3h)."""
+    their supply energies (K,) J (the cost, docs/design.md §3i)."""
     from ..planning.roadmap import feasibility
     from .energy import _outcomes
 
@@ -126,7 +126,7 @@ SCREEN_TOL = 5e-3
 def ideal_costs(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray,
                 samples: int = 64) -> np.ndarray:
     """Perfect-tracking supply energy (J; E⁺ summed over joints with a supply per joint,
-    §3h) of the rest-to-rest quintic edges Q0[k] → Q1[k] lasting T[k] s (docs/design.md
+    §3i) of the rest-to-rest quintic edges Q0[k] → Q1[k] lasting T[k] s (docs/design.md
     §3f): ∫ max(V_ff·i_ff, 0) dt (or the shared bus's power) by Simpson's rule over
     ``samples`` + 1 points of normalised time — no simulation. A screen: measured
     within 0.3 % of the simulated E⁺ (rank correlation 1.0) on 60 random edges each of the

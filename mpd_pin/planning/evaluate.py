@@ -109,7 +109,7 @@ def _enter(roadmap: Roadmap, ids: np.ndarray, out, options: RoadmapOptions,
     refused = over | missed
     energy = np.asarray(out.energy, float)
     roadmap.energy[ids[~refused]] = energy[~refused]
-    if roadmap.bus is not None:  # files from before the shared bus carry none (§3h)
+    if roadmap.bus is not None:  # files from before the shared bus carry none (§3i)
         roadmap.bus[ids[~refused]] = np.asarray(out.bus_energy, float)[~refused]
     counts = roadmap.edge_counts
     counts["refused_effort"] = counts.get("refused_effort", 0) + int(over.sum())

@@ -52,7 +52,10 @@ class ExecutionResult:
 
     initial_path: the first plan (node ids); travelled: the nodes actually visited;
     energy: E⁺ per joint (J) along ``travelled`` (sum of its edges' costs);
-    replans: one :class:`ReplanEvent` per repair; initial_plan_seconds, expansions.
+    replans: one :class:`ReplanEvent` per repair; initial_plan_seconds, expansions;
+    supply_energy: the energy ``travelled`` draws from the drive's supply (J, docs/design.md
+    §3i; None: Σ E⁺, the paper's per-joint supplies). ``initial_cost`` is the search's cost,
+    which with regeneration includes the node potential's φ(start) − φ(goal).
     """
 
     initial_path: list[int]
@@ -62,9 +65,12 @@ class ExecutionResult:
     replans: list[ReplanEvent] = field(default_factory=list)
     initial_plan_seconds: float = 0.0
     initial_expansions: int = 0
+    supply_energy: float | None = None
 
     @property
     def total_energy(self) -> float:
+        if self.supply_energy is not None:
+            return float(self.supply_energy)
         return float(np.sum(self.energy))
 
     def to_dict(self) -> dict:
@@ -216,4 +222,6 @@ def execute(
             path = solve(p)
         step += 1
     result.energy = roadmap.path_energy(result.travelled)
+    if not roadmap.supply.is_default:
+        result.supply_energy = roadmap.path_supply_energy(result.travelled)
     return result

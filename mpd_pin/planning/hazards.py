@@ -76,6 +76,10 @@ class HazardResult:
     satisfied: bool
     penalty: float
     penalty_floor: float
+    #: the energies the two paths draw from the drive's supply (J, docs/design.md §3i);
+    #: None: Σ E⁺ (the paper's per-joint supplies)
+    first_supply_energy: float | None = None
+    final_supply_energy: float | None = None
 
     def to_dict(self) -> dict:
         """Plain data for result.json (``hazard_replanning``), written by
@@ -86,11 +90,11 @@ class HazardResult:
         return {
             "first_path": [int(n) for n in self.first_path],
             "first_energy_per_joint": [float(e) for e in self.first_energy],
-            "first_total_energy": float(np.sum(self.first_energy)),
+            "first_total_energy": _total(self.first_supply_energy, self.first_energy),
             "first_margin": float(self.first_margin),
             "final_path": [int(n) for n in self.final_path],
             "final_energy_per_joint": [float(e) for e in self.final_energy],
-            "final_total_energy": float(np.sum(self.final_energy)),
+            "final_total_energy": _total(self.final_supply_energy, self.final_energy),
             "final_margin": float(self.final_margin),
             "satisfied": bool(self.satisfied),
             "penalty": float(self.penalty),
@@ -115,8 +119,17 @@ def penalised_roadmap(
     (both directions) cost ``penalised_cost(cost, penalty, floor)`` (∞ removes them), as in
     :func:`plan_avoiding_hazards`. Each such edge's per-joint energies (J) are scaled (or,
     for a zero-cost edge, raised evenly) so that their sum is the penalised cost. Only for
-    planning: report energies from the original."""
+    planning: report energies from the original. With a supply other than the paper's
+    (docs/design.md §3i) the penalty applies to the search's cost (the supply energy,
+    reweighted by the node potential: ≥ 0) carried by :meth:`Roadmap.with_costs`."""
     pen = {(min(u, v), max(u, v)) for u, v in pairs}
+    if not roadmap.supply.is_default:
+        costs = np.array(roadmap.cost, dtype=float)
+        for e, (u, v) in enumerate(zip(roadmap.src.tolist(), roadmap.dst.tolist(),
+                                       strict=True)):
+            if (min(u, v), max(u, v)) in pen:
+                costs[e] = penalised_cost(float(costs[e]), penalty, floor)
+        return roadmap.with_costs(costs)
     energy = np.array(roadmap.energy, dtype=float, copy=True)
     nq = energy.shape[1]
     for e, (u, v) in enumerate(zip(roadmap.src.tolist(), roadmap.dst.tolist(), strict=True)):
@@ -244,4 +257,12 @@ def plan_avoiding_hazards(
         satisfied=satisfied,
         penalty=float(penalty),
         penalty_floor=floor,
+        **({} if roadmap.supply.is_default else {
+            "first_supply_energy": roadmap.path_supply_energy(first),
+            "final_supply_energy": roadmap.path_supply_energy(final)}),
     )
+
+
+def _total(supply_energy: float | None, energy: np.ndarray) -> float:
+    """A path's total (J): its supply energy when given, else Σ E⁺ (§3i)."""
+    return float(np.sum(energy)) if supply_energy is None else float(supply_energy)

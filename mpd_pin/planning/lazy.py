@@ -124,7 +124,7 @@ class LazyEdges:
         self._Q1 = edge_target(cost, Q0, rm.nodes[rm.dst])  # shorter way round (§1d)
         if rm.potential is None:
             lower = self.bound(Q0, self._Q1, rm.durations)
-        else:  # the bound of the reweighted cost (docs/design.md §3h)
+        else:  # the bound of the reweighted cost (docs/design.md §3i)
             lower = self.bound(Q0, self._Q1, rm.durations,
                                potential=(rm.potential[rm.src], rm.potential[rm.dst]))
         self.lower = np.asarray(lower, dtype=float)
@@ -232,13 +232,13 @@ class LazyEdges:
         if ids.size == 0:
             return False
         true = self.roadmap.edge_costs(ids)
-        if np.any(true < 0):  # the searches and the bounds need costs >= 0 (§3h)
+        if np.any(true < 0):  # the searches and the bounds need costs >= 0 (§3i)
             k = int(ids[np.flatnonzero(true < 0)[0]])
             rm = self.roadmap
             raise ValueError(f"edge {int(rm.src[k])} -> {int(rm.dst[k])} costs "
                              f"{float(rm.edge_costs([k])[0]):.6g} J < 0; the searches need "
                              "costs >= 0 (a supply with regeneration is reweighted by the "
-                             "node potential, docs/design.md §3h)")
+                             "node potential, docs/design.md §3i)")
         lb = self.lower[ids]
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(true > 0, lb / np.where(true > 0, true, 1.0),

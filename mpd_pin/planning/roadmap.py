@@ -63,7 +63,7 @@ class Roadmap:
     key: hash of everything that determined the roadmap (see :meth:`key_for`).
     timings: seconds per phase of the build.
     bus, supply, potential: the shared-bus energies and how they are priced
-    (docs/design.md §3h); with the default supply the cost is the paper's Σ E⁺.
+    (docs/design.md §3i); with the default supply the cost is the paper's Σ E⁺.
     """
 
     nodes: np.ndarray
@@ -87,7 +87,7 @@ class Roadmap:
     #: undirected node pairs collision-checked while building (not saved in files)
     pairs_checked: int = 0
     #: (E, 2) [B⁺, B⁻] of the shared bus per edge (J, NaN where not evaluated); None in
-    #: files written before the shared bus (docs/design.md §3h)
+    #: files written before the shared bus (docs/design.md §3i)
     bus: np.ndarray | None = None
     #: how the edges are priced: the drive's supply (set by :func:`attach_supply`)
     supply: Supply = PER_JOINT
@@ -112,7 +112,7 @@ class Roadmap:
 
     @property
     def supply_energy(self) -> np.ndarray:
-        """(E,) energy drawn from the supply per edge (J, docs/design.md §3h): Σ E⁺ with
+        """(E,) energy drawn from the supply per edge (J, docs/design.md §3i): Σ E⁺ with
         a supply per joint, B⁺ − η B⁻ on a shared bus (then possibly < 0)."""
         if self.supply.is_default:
             return self.energy.sum(axis=1)
@@ -122,7 +122,7 @@ class Roadmap:
     def cost(self) -> np.ndarray:
         """Directed edge costs the search uses (J): E⁺ summed over joints (the paper), or
         the supply energy, reweighted by the node potential when regeneration can make
-        it negative: c + φ(src) − φ(dst), ≥ 0 (docs/design.md §3h)."""
+        it negative: c + φ(src) − φ(dst), ≥ 0 (docs/design.md §3i)."""
         return self.edge_costs(np.arange(self.num_edges))
 
     def edge_costs(self, ids: np.ndarray) -> np.ndarray:
@@ -169,8 +169,16 @@ class Roadmap:
         ids = self.edge_ids(path)
         return self.energy[ids].sum(axis=0) if ids.size else np.zeros(self.nodes.shape[1])
 
+    def path_supply_energy(self, path: list[int]) -> float:
+        """The energy a node path draws from :attr:`supply` (J): Σ E⁺ with a supply per
+        joint, else the bus's B⁺ − η B⁻ over its edges (docs/design.md §3i)."""
+        energy = self.path_energy(path)
+        if self.supply.is_default:
+            return float(np.sum(energy))
+        return float(supply_energy(self.supply, energy, self.path_bus(path)))
+
     def path_bus(self, path: list[int]) -> np.ndarray:
-        """[B⁺, B⁻] (J) of a node path: the sums of its edges' (docs/design.md §3h)."""
+        """[B⁺, B⁻] (J) of a node path: the sums of its edges' (docs/design.md §3i)."""
         ids = self.edge_ids(path)
         return self._bus()[ids].sum(axis=0) if ids.size else np.zeros(2)
 
@@ -299,7 +307,7 @@ class Roadmap:
             n: data[n]
             for n in ("nodes", "endpoints", "src", "dst", "durations", "energy", "edge_counts",
                       "checked", "bus")
-            if n in data  # "checked": only in files of lazily checked roadmaps; "bus": §3h
+            if n in data  # "checked": only in files of lazily checked roadmaps; "bus": §3i
         }
         if cls._checksum(key, arrays) != str(data["checksum"]):
             raise ValueError(
@@ -674,7 +682,7 @@ def build_roadmap(
 def reweighted(c: np.ndarray, potential: np.ndarray | None, src: np.ndarray,
                dst: np.ndarray) -> np.ndarray:
     """c + φ(src) − φ(dst) (J), the search's cost of edges priced ``c`` (docs/design.md
-    §3h); ``c`` itself without a potential. NaN (not evaluated) and ∞ stay so.
+    §3i); ``c`` itself without a potential. NaN (not evaluated) and ∞ stay so.
 
     The potential makes every cost ≥ 0 up to the end current's tracking residual; a
     reweighted cost below 0 by more than round-off (1e-9 of the terms) raises
@@ -696,7 +704,7 @@ def reweighted(c: np.ndarray, potential: np.ndarray | None, src: np.ndarray,
                 f"an edge from node {int(src[k])} to node {int(dst[k])} costs "
                 f"{float(c[k]):.6g} J, below the potential difference "
                 f"{float(phi1[k] - phi0[k]):.6g} J that makes costs with regeneration "
-                "non-negative (docs/design.md §3h): the motors' Ke/Kt differ between "
+                "non-negative (docs/design.md §3i): the motors' Ke/Kt differ between "
                 "joints or the edge ends far from rest; use regeneration = 0 or motors "
                 "with one Ke/Kt")
         out = np.where(low, 0.0, out)
@@ -705,7 +713,7 @@ def reweighted(c: np.ndarray, potential: np.ndarray | None, src: np.ndarray,
 
 def attach_supply(roadmap: Roadmap, drive) -> Roadmap:
     """``roadmap`` priced with ``drive.supply``: sets :attr:`Roadmap.supply` and, when the
-    supply regenerates, the node potential (docs/design.md §3h). In place; returned."""
+    supply regenerates, the node potential (docs/design.md §3i). In place; returned."""
     supply = drive.supply
     roadmap.supply = supply
     if roadmap.bus is None and not supply.is_default:

@@ -575,10 +575,13 @@ def plot_cumulative_energy(
     title: str = "",
     compare: tuple[np.ndarray, np.ndarray, str] | None = None,
     marks: Sequence[tuple[float, str]] = (),
+    supply: tuple[np.ndarray, str] | None = None,
 ):
     """Cumulative E⁺ per joint (J) and their total against time (s); ``compare`` =
     (t (s), cumulative total E⁺ (J), label) of another path (e.g. the shortest joint-space
-    path, docs/design.md §7c), drawn as a second total curve; ``marks`` = (time (s), label)
+    path, docs/design.md §7c), drawn as a second total curve; ``supply`` = (cumulative
+    energy drawn from a shared bus (J), label), drawn as the total the run is priced by
+    (docs/design.md §3i), beside the per-joint sum; ``marks`` = (time (s), label)
     pairs, each drawn as a vertical dashed line with its label written along it (e.g. the
     times the arm re-planned)."""
     import matplotlib.pyplot as plt
@@ -587,7 +590,13 @@ def plot_cumulative_energy(
     for k, name in enumerate(joint_names):
         ax.plot(t, energy_t[:, k], label=f"{name}: {energy_t[-1, k]:.4g} J")
     total = "total (energy-optimal)" if compare is not None else "total"
-    ax.plot(t, energy_t.sum(axis=1), "k--", label=f"{total}: {energy_t[-1].sum():.4g} J")
+    if supply is not None:
+        drawn, name = supply
+        ax.plot(t, energy_t.sum(axis=1), "--", color="0.5",
+                label=f"sum of per-joint supplies: {energy_t[-1].sum():.4g} J")
+        ax.plot(t, drawn, "k-", lw=2, label=f"{total}, {name}: {drawn[-1]:.4g} J")
+    else:
+        ax.plot(t, energy_t.sum(axis=1), "k--", label=f"{total}: {energy_t[-1].sum():.4g} J")
     if compare is not None:
         tc, ec, name = compare
         ec = np.asarray(ec, float)

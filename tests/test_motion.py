@@ -202,7 +202,7 @@ def test_nonstop_energy_matches_independent_sympy_rk4(ff):
     W = np.array([[0.3, 0.2, -0.1], [0.9, -0.3, 0.4], [1.2, 0.1, 0.2], [1.0, -0.4, 0.5]])
     vs = via_spline(W, unit_knots(W, arm.model.velocityLimit))
     T = 2.4
-    E, _, err, _, _ = _simulate_nonstop(drive, vs, np.array([T, 3.0]), 5e-3)
+    E, _, err, _, _, _ = _simulate_nonstop(drive, vs, np.array([T, 3.0]), 5e-3)
     ref = _sympy_nonstop(drive, W, vs.knots * T / vs.unit_duration, 5e-3, ff=ff)
     np.testing.assert_allclose(E[0], ref, rtol=1e-6)
     assert np.all(np.isfinite(err[0]))

@@ -282,6 +282,7 @@ def _resave_with_valid_checksum(path, data):
     """Write ``data`` (the .npz fields) with a checksum recomputed as the format defines it:
     SHA-256 of the key, then of each array (sorted by name) as "name:dtype:shape" + bytes."""
     names = ("nodes", "endpoints", "src", "dst", "durations", "energy", "edge_counts")
+    names += tuple(n for n in ("checked", "bus") if n in data)  # optional arrays
     h = hashlib.sha256(str(data["key"]).encode())
     for name in sorted(names):
         a = np.ascontiguousarray(data[name])
@@ -292,6 +293,11 @@ def _resave_with_valid_checksum(path, data):
 
 
 CRAFTED = {
+    "bus of 3 columns": (lambda d, n: {"bus": np.zeros((d["src"].size, 3))}, "bus must be"),
+    "negative bus": (lambda d, n: {"bus": np.r_[[[-1.0, 0.0]], d["bus"][1:]]},
+                     "bus energies must be >= 0"),
+    "bus NaN on an evaluated edge": (lambda d, n: {"bus": np.r_[[[np.nan, 0.0]], d["bus"][1:]]},
+                                     "NaN exactly where"),
     "src id too large": (lambda d, n: {"src": np.r_[n, d["src"][1:]]}, "node ids outside"),
     "negative dst id": (lambda d, n: {"dst": np.r_[d["dst"][:3], -1, d["dst"][4:]]},
                         "node ids outside"),

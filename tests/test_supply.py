@@ -188,3 +188,16 @@ def test_bad_supply_gets_one_line_naming_the_key(tmp_path, body, key):
     assert len(lines) == 1 and lines[0].startswith("mpd-pin: error: "), res.stderr
     assert key in lines[0], lines[0]
     assert not (tmp_path / "out").exists()
+
+
+def test_planning_for_the_bus_never_loses_to_repricing(eager_shared):
+    """The motion planned for the bus costs no more on it than the paper's per-joint plan's
+    motion priced on the same bus: each candidate is also refined per joint (§3i)."""
+    plan, _ = eager_shared
+    per_joint = mp.plan(mp.load_scenario("quickstart"), show_progress=False,
+                        evaluation="eager", collision="eager")
+    b_plus, b_minus = per_joint.motion.bus_energy
+    assert plan.total_energy <= b_plus - 0.6 * b_minus + 1e-9
+    assert plan.total_energy < 0.6 * per_joint.total_energy  # the bus is worth it here
+    names = [c["name"] for c in plan.to_dict()["motion"]["refinement"]["candidates"]]
+    assert "energy optimum (refined per joint)" in names, names

@@ -201,3 +201,38 @@ def test_planning_for_the_bus_never_loses_to_repricing(eager_shared):
     assert plan.total_energy < 0.6 * per_joint.total_energy  # the bus is worth it here
     names = [c["name"] for c in plan.to_dict()["motion"]["refinement"]["candidates"]]
     assert "energy optimum (refined per joint)" in names, names
+
+
+def test_unequal_ke_over_kt_eager_reweights_exactly(tmp_path):
+    """Motors whose Ke/Kt differ by ±10 % between joints have no exact physical potential
+    (§3i): some edges stay negative after φ. With every edge evaluated, Johnson's shift on
+    top of φ makes the costs non-negative, and the optimum is Bellman–Ford's on the raw
+    costs."""
+    scn = mp.load_scenario("quickstart")
+    motors = [dataclasses.replace(m, Ke=m.Kt * (0.9 if k % 2 else 1.1))
+              for k, m in enumerate(scn.drive().motor_list)]
+    scn = dataclasses.replace(scn, motor=motors, supply=mp.Supply("shared", 1.0))
+    cache = tmp_path / "rm.npz"
+    plan = mp.plan(scn, show_progress=False, evaluation="eager", collision="eager",
+                   cache=cache, refine=False)
+    rm = Roadmap.load(cache)
+    c = rm.bus[:, 0] - rm.bus[:, 1]
+    phi = node_potential(scn.drive(), rm.nodes)
+    assert (c + phi[rm.src] - phi[rm.dst] < -1e-6).sum() > 0  # φ alone is not enough here
+    G = nx.DiGraph()
+    for u, v, w in zip(rm.src.tolist(), rm.dst.tolist(), c.tolist(), strict=True):
+        G.add_edge(u, v, weight=w)
+    ref = nx.bellman_ford_path_length(G, rm.start, rm.goal)
+    assert plan.roadmap_path.total_energy == pytest.approx(ref, rel=1e-9)
+
+
+def test_johnson_shift_and_negative_cycles():
+    from mpd_pin.planning.roadmap import johnson_shift
+
+    src, dst = np.array([0, 1, 2]), np.array([1, 2, 0])
+    c = np.array([2.0, -1.5, 0.25])
+    psi = johnson_shift(c, src, dst, 3)
+    assert np.all(c + psi[src] - psi[dst] >= -1e-12) and psi.max() <= 0.0
+    assert johnson_shift(np.abs(c), src, dst, 3).tolist() == [0.0, 0.0, 0.0]
+    with pytest.raises(ValueError, match="negative cycle"):
+        johnson_shift(np.array([1.0, -1.5, 0.25]), src, dst, 3)

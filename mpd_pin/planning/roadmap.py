@@ -705,8 +705,9 @@ def reweighted(c: np.ndarray, potential: np.ndarray | None, src: np.ndarray,
                 f"{float(c[k]):.6g} J, below the potential difference "
                 f"{float(phi1[k] - phi0[k]):.6g} J that makes costs with regeneration "
                 "non-negative (docs/design.md §3i): the motors' Ke/Kt differ between "
-                "joints or the edge ends far from rest; use regeneration = 0 or motors "
-                "with one Ke/Kt")
+                "joints or the edge ends far from rest; use [roadmap] evaluation = "
+                "\"eager\" (which reweights every cost exactly), regeneration = 0 or "
+                "motors with one Ke/Kt")
         out = np.where(low, 0.0, out)
     return out
 
@@ -719,5 +720,39 @@ def attach_supply(roadmap: Roadmap, drive) -> Roadmap:
     if roadmap.bus is None and not supply.is_default:
         raise ValueError("this roadmap file holds no shared-bus energies (written before "
                          "them); delete it to rebuild")
-    roadmap.potential = node_potential(drive, roadmap.nodes) if supply.needs_potential else None
+    roadmap.potential = None
+    if supply.needs_potential:
+        phi = node_potential(drive, roadmap.nodes)
+        known = roadmap.evaluated
+        if known.all() and roadmap.num_edges:  # every cost known: make them all >= 0 exactly
+            c = supply_energy(supply, roadmap.energy, roadmap._bus())
+            phi = phi + johnson_shift(c + phi[roadmap.src] - phi[roadmap.dst], roadmap.src,
+                                      roadmap.dst, roadmap.num_nodes)
+        roadmap.potential = phi
     return roadmap
+
+
+def johnson_shift(reduced: np.ndarray, src: np.ndarray, dst: np.ndarray, n: int) -> np.ndarray:
+    """ψ (n,) J with ``reduced`` + ψ(src) − ψ(dst) >= 0 on every edge (Johnson's
+    reweighting: ψ is the Bellman–Ford distance from a virtual node joined to every node at
+    cost 0); all 0 when no cost is negative. ValueError on a negative cycle: motors that
+    return more than a closed motion took (docs/design.md §3i)."""
+    reduced = np.asarray(reduced, float)
+    with np.errstate(invalid="ignore"):
+        if not np.any(reduced < 0):
+            return np.zeros(n)
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import NegativeCycleError, bellman_ford
+
+    ok = np.isfinite(reduced)
+    rows = np.r_[src[ok], np.full(n, n)]
+    cols = np.r_[dst[ok], np.arange(n)]
+    # built from (data, (i, j)): an explicit 0 stays an edge; the roadmap has no duplicates
+    G = csr_matrix((np.r_[reduced[ok], np.zeros(n)], (rows, cols)), shape=(n + 1, n + 1))
+    try:
+        dist = bellman_ford(G, directed=True, indices=n)
+    except NegativeCycleError:
+        raise ValueError("a closed motion on this roadmap returns more energy than it takes "
+                         "(a negative cycle): the motors' Ke/Kt differ between joints; use "
+                         "regeneration = 0 or motors with one Ke/Kt") from None
+    return np.asarray(dist[:n], float)

@@ -129,10 +129,13 @@ class RefRun:
     V: np.ndarray
     energy: np.ndarray
     net_energy: np.ndarray
+    extra_t: np.ndarray | None = None  # the ``extra`` states at every step point
 
 
-def reference_edge(drive: mp.Drive, name: str, q0, q1, T: float, dt: float) -> RefRun:
-    """Classic RK4 on the sympy model, state [q, q̇, i, E⁺, E]."""
+def reference_edge(drive: mp.Drive, name: str, q0, q1, T: float, dt: float,
+                   extra=None) -> RefRun:
+    """Classic RK4 on the sympy model, state [q, q̇, i, E⁺, E] and, with ``extra`` (a
+    function of the stage's V and i giving m derivatives), m more states."""
     sd = sympy_drive(name)
     nq = sd.nq
     q0 = [float(x) for x in q0]
@@ -159,10 +162,12 @@ def reference_edge(drive: mp.Drive, name: str, q0, q1, T: float, dt: float) -> R
         a = np.linalg.solve(M, np.array(sd.force(q, v, i, mot)))
         di = np.array(sd.didt(v, i, V, mot))
         P = V * i
-        return np.concatenate([v, a, di, np.maximum(P, 0.0), P]), V
+        more = [] if extra is None else list(extra(V, i))
+        return np.concatenate([v, a, di, np.maximum(P, 0.0), P, more]), V
 
     i0 = sd.arm.gravity(np.array(q0)) / (drive.n * drive.Kt)  # holding current G(q0)/(n Kt)
-    x = np.concatenate([q0, np.zeros(nq), i0, np.zeros(2 * nq)])
+    m = 0 if extra is None else len(extra(np.zeros(nq), np.zeros(nq)))
+    x = np.concatenate([q0, np.zeros(nq), i0, np.zeros(2 * nq + m)])
     X = [x]
     Vs = []
     for k in range(steps):
@@ -183,7 +188,8 @@ def reference_edge(drive: mp.Drive, name: str, q0, q1, T: float, dt: float) -> R
         i=X[:, 2 * nq : 3 * nq],
         V=np.array(Vs),
         energy=X[-1, 3 * nq : 4 * nq],
-        net_energy=X[-1, 4 * nq :],
+        net_energy=X[-1, 4 * nq : 5 * nq],
+        extra_t=X[:, 5 * nq :] if m else None,
     )
 
 

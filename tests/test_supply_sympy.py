@@ -20,7 +20,6 @@ models give four clearly different energies (checked, so the test cannot pass tr
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -35,7 +34,6 @@ try:  # tests/ is on sys.path under pytest's default (rootdir-less, "prepend") i
     from test_energy_sympy import (
         EDGES,
         SETUPS,
-        _motor_args,
         pin_arm,
         reference_edge,
         sympy_drive,
@@ -44,7 +42,6 @@ except ImportError:  # pragma: no cover - if tests/ ever becomes a package
     from tests.test_energy_sympy import (
         EDGES,
         SETUPS,
-        _motor_args,
         pin_arm,
         reference_edge,
         sympy_drive,
@@ -120,65 +117,16 @@ class BusRun:
 
 
 def reference_bus_edge(drive: mp.Drive, name: str, q0, q1, T: float, dt: float) -> BusRun:
-    """``test_energy_sympy.reference_edge`` with two more states: [q, q̇, i, E⁺, E, B⁺, B⁻]."""
-    sd = sympy_drive(name)
-    nq = sd.nq
-    bus = sympy_bus(nq)
-    q0 = [float(x) for x in q0]
-    dq = [float(b) - a for a, b in zip(q0, q1, strict=True)]
-    mot = _motor_args(drive)
-    kp, kd = drive.kp_vec, drive.kd_vec
-    vmax = np.array([math.inf if m.v_max is None else m.v_max for m in drive.motor_list])
-    ff = drive.feedforward
-    steps = round(T / dt)
-    assert abs(steps * dt - T) < 1e-12
-    h = T / steps
-
-    def voltage(t, q, v):
-        r = np.array(sd.ref(t, T, q0, dq))
-        V = kp * (r[:nq] - q) + kd * (r[nq:] - v)
-        if ff:
-            V = V + np.array(sd.vff(t, T, q0, dq, mot))
-        return np.clip(V, -vmax, vmax)
-
-    def rate(t, x):
-        q, v, i = x[:nq], x[nq : 2 * nq], x[2 * nq : 3 * nq]
-        V = voltage(t, q, v)
-        M = np.array(sd.mass(q, mot)).reshape(nq, nq)
-        a = np.linalg.solve(M, np.array(sd.force(q, v, i, mot)))
-        di = np.array(sd.didt(v, i, V, mot))
-        P = V * i
-        _, b_pos, b_neg = bus(V.tolist(), i.tolist())
-        return np.concatenate([v, a, di, np.maximum(P, 0.0), P, [b_pos, b_neg]]), V
-
-    i0 = sd.arm.gravity(np.array(q0)) / (drive.n * drive.Kt)  # holding current G(q0)/(n Kt)
-    x = np.concatenate([q0, np.zeros(nq), i0, np.zeros(2 * nq + 2)])
-    X = [x]
-    Vs = []
-    for k in range(steps):
-        t = k * h
-        k1, V0 = rate(t, x)
-        k2, _ = rate(t + h / 2, x + h / 2 * k1)
-        k3, _ = rate(t + h / 2, x + h / 2 * k2)
-        k4, _ = rate(t + h, x + h * k3)
-        x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        X.append(x)
-        Vs.append(V0)
-    Vs.append(voltage(T, x[:nq], x[nq : 2 * nq]))
-    X = np.array(X)
-    V = np.array(Vs)
-    i = X[:, 2 * nq : 3 * nq]
+    """``test_energy_sympy.reference_edge`` with two more states: [q, q̇, i, E⁺, E, B⁺, B⁻],
+    their rates max(±P, 0) from the sympy bus power at every RK4 stage."""
+    bus = sympy_bus(sympy_drive(name).nq)
+    run = reference_edge(drive, name, q0, q1, T, dt,
+                         extra=lambda V, i: bus(V.tolist(), i.tolist())[1:])
     return BusRun(
-        t=np.arange(steps + 1) * h,
-        q=X[:, :nq],
-        v=X[:, nq : 2 * nq],
-        i=i,
-        V=V,
-        P=np.array([bus(Vk.tolist(), ik.tolist())[0] for Vk, ik in zip(V, i, strict=True)]),
-        energy=X[-1, 3 * nq : 4 * nq],
-        net_energy=X[-1, 4 * nq : 5 * nq],
-        bus=X[-1, 5 * nq :],
-        bus_t=X[:, 5 * nq :],
+        t=run.t, q=run.q, v=run.v, i=run.i, V=run.V,
+        P=np.array([bus(Vk.tolist(), ik.tolist())[0] for Vk, ik in
+                    zip(run.V, run.i, strict=True)]),
+        energy=run.energy, net_energy=run.net_energy, bus=run.extra_t[-1], bus_t=run.extra_t,
     )
 
 

@@ -89,7 +89,7 @@ def test_lazy_search_finds_the_eager_optimum(eager_shared, tmp_path):
     """Lazy evaluation (bounds of the reweighted cost) gives the same path and energy."""
     plan, rm = eager_shared
     lazy = mp.plan(_shared_scenario(), show_progress=False, evaluation="lazy",
-                   collision="eager")
+                   collision="eager", refine=False)
     assert lazy.roadmap_path.nodes == plan.roadmap_path.nodes
     assert lazy.roadmap_path.total_energy == pytest.approx(plan.roadmap_path.total_energy,
                                                            rel=1e-12)
@@ -133,7 +133,7 @@ def test_scenario_file_supply_and_trajectory_power(tmp_path_factory):
     text = resolve_scenario("quickstart").read_text()
     path = tmp_path_factory.mktemp("bus") / "qs_bus.toml"
     path.write_text(text + '\n[supply]\nbus = "shared"\nregeneration = 0.6\n')
-    res, out = run_once(tmp_path_factory, path, "--no-replay", "--quiet")
+    res, out = run_once(tmp_path_factory, path, "--no-replay", "--quiet", "--no-refine")
     assert res.returncode == 0, res.stderr
 
     r = json.loads((out / "result.json").read_text())
@@ -194,8 +194,7 @@ def test_planning_for_the_bus_never_loses_to_repricing(eager_shared):
     """The motion planned for the bus costs no more on it than the paper's per-joint plan's
     motion priced on the same bus: each candidate is also refined per joint (§3i)."""
     plan, _ = eager_shared
-    per_joint = mp.plan(mp.load_scenario("quickstart"), show_progress=False,
-                        evaluation="eager", collision="eager")
+    per_joint = mp.plan(mp.load_scenario("quickstart"), show_progress=False)
     b_plus, b_minus = per_joint.motion.bus_energy
     assert plan.total_energy <= b_plus - 0.6 * b_minus + 1e-9
     assert plan.total_energy < 0.6 * per_joint.total_energy  # the bus is worth it here

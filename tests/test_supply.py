@@ -18,7 +18,8 @@ import pytest
 
 import mpd_pin as mp
 from mpd_pin.dynamics.supply import node_potential
-from mpd_pin.planning.roadmap import Roadmap, reweighted
+from mpd_pin.planning.roadmap import Roadmap
+from mpd_pin.planning.supply_costs import reweighted
 
 try:  # tests/ is on sys.path under pytest's default import mode
     from conftest import run_cli, run_once
@@ -226,7 +227,7 @@ def test_unequal_ke_over_kt_eager_reweights_exactly(tmp_path):
 
 
 def test_johnson_shift_and_negative_cycles():
-    from mpd_pin.planning.roadmap import johnson_shift
+    from mpd_pin.planning.supply_costs import johnson_shift
 
     src, dst = np.array([0, 1, 2]), np.array([1, 2, 0])
     c = np.array([2.0, -1.5, 0.25])

@@ -29,8 +29,8 @@ from .roadmap import (
     _free_pairs,
     _neighbour_pairs,
     _tqdm,
-    attach_supply,
 )
+from .supply_costs import attach_supply
 
 __all__ = ["add_query", "SAME_NODE"]
 

@@ -109,7 +109,8 @@ class EnergyCost:
         Q1 = self.drive.arm.edge_target(Q0, Q1)  # the shorter way round (§1d)
         K, nq = Q0.shape
         T = np.broadcast_to(np.asarray(durations, dtype=float), (K,)).copy()
-        out = [getattr(EdgeOutcomes.zeros(K, nq), f.name) for f in fields(EdgeOutcomes)]
+        zeros = EdgeOutcomes.zeros(K, nq)  # one array per field, filled row by row
+        out = [getattr(zeros, f.name) for f in fields(EdgeOutcomes)]
         todo = np.arange(K)
         if reuse is not None:
             mask, known = reuse

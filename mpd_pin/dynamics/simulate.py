@@ -439,7 +439,8 @@ def edge_outcomes(
         raise ValueError(
             f"duration must be a scalar or one value per edge ({K}), got shape {durations.shape}"
         )
-    out = [np.zeros((K, _columns(f, drive.nq))) for f in _OUTCOME_FIELDS]
+    zeros = EdgeOutcomes.zeros(K, drive.nq)
+    out = [getattr(zeros, f) for f in _OUTCOME_FIELDS]
     steps = np.array([step_count(T, dt) for T in durations.tolist()], dtype=np.int64)
     # Edges with the same step h = T/N (bit for bit) run together, shortest first, in
     # chunks of at most ``chunk`` edges whose tables (nt × K × nq) stay within the budget.

@@ -112,14 +112,6 @@ class Roadmap:
         return int(self.src.shape[0])
 
     @property
-    def supply_energy(self) -> np.ndarray:
-        """(E,) energy drawn from the supply per edge (J, docs/design.md §3i): Σ E⁺ with
-        a supply per joint, B⁺ − η B⁻ on a shared bus (then possibly < 0)."""
-        if self.supply.is_default:
-            return self.energy.sum(axis=1)
-        return supply_energy(self.supply, self.energy, self._bus())
-
-    @property
     def cost(self) -> np.ndarray:
         """Directed edge costs the search uses (J): E⁺ summed over joints (the paper), or
         the supply energy, reweighted by the node potential when regeneration can make

@@ -39,9 +39,11 @@ legend row per trace and marker, naming its scene node and colour.
 The page
 --------
 meshcat's static page starts one ``fetch`` per scene command and they finish in no
-set order; the page is rewritten to apply them one after the other with the
-animation last, so it starts once the scene (and the Panda's ~10 MB of meshes) is
-built and no late static pose can undo its final frame. Planar motions (x–z plane)
+set order; the page is rewritten to decode them in its own script and apply them one
+after the other in one task, the animation last, so it starts once the scene (and the
+Panda's ~10 MB of meshes) is built and no late static pose can undo its final frame.
+No fetch is left pending, so a headless browser's virtual time cannot run past the
+scene's loading (with fetches it did, in about 1 run in 4). Planar motions (x–z plane)
 are shown through an orthographic camera looking along +y, like the 2-D plots;
 others through meshcat's perspective camera from the front-right, above. The
 server (``python -m meshcat.servers.zmqserver``, loopback only) is killed with its

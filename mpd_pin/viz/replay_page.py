@@ -42,13 +42,15 @@ _FETCH_COMMAND = re.compile(
     r"\.then\(buffer => viewer\.handle_command_bytearray\(new Uint8Array\(buffer\)\)\);\s*"
 )
 _SEQUENTIAL_LOADER = """
-(async function () {{
+(function () {{
     const commands = [
 {urls}
     ];
     for (const url of commands) {{
-        const buffer = await (await fetch(url)).arrayBuffer();
-        viewer.handle_command_bytearray(new Uint8Array(buffer));
+        const text = atob(url.slice(url.indexOf(",") + 1));
+        const bytes = new Uint8Array(text.length);
+        for (let i = 0; i < text.length; i++) bytes[i] = text.charCodeAt(i);
+        viewer.handle_command_bytearray(bytes);
     }}
 }})();
 """
@@ -78,8 +80,10 @@ def sequence_commands(page: str) -> str:
     meshcat's static page starts one independent ``fetch`` per command, and they
     complete in no guaranteed order: with large meshes (the Panda's are ~10 MB) a
     static pose could land after the animation had played and undo its last frame,
-    and the motion would play while the meshes are still loading. Here every
-    command is applied in turn, and the animation starts once the scene is built.
+    and the motion would play while the meshes are still loading. Here the page's
+    script decodes every command (base64) and applies them in turn, in one task, so the
+    animation starts once the scene is built; with no fetch pending, a headless
+    browser's virtual time cannot run ahead of the loading either.
     If the page does not have the expected form it is returned unchanged (with a warning).
     """
     matches = list(_FETCH_COMMAND.finditer(page))

@@ -219,29 +219,78 @@ def integrate_tables(
     K, nq = Q0.shape
     N = np.asarray(N, dtype=np.int64)
     n_max = int(N.max())
-    c = _step_constants(drive, h)
     if pool is None:
         pool = _pool(drive, threads)
     aba_threads = max(1, int(threads)) if K >= ABA_PARALLEL_MIN else 1
+    X = np.zeros((6, K, nq))  # row 5: B⁺ in column 0, the other columns stay 0
+    X[0] = Q0
+    X[2] = i0
+    V = np.empty((K, nq))
+    step = _rk4_stepper(_step_constants(drive, h), list(W), X, V, h, pool, aba_threads)
+    tmp = np.empty((K, nq))
+    peak_i = np.abs(X[2])
+    rec = None
+    if record:
+        rec = [np.empty((n_max + 1, K, nq)) for _ in range(6)]
+        rec.append(np.empty((n_max + 1, K, 2)))
+    result = [np.empty((K, nq)) for _ in range(5)] + [np.empty((K, 2))]
+    ending = {int(n): np.flatnonzero(N == n) for n in np.unique(N)}
+    for n in range(n_max):
+        if rec is not None:
+            _record(rec, n, X, V)
+        step(n)
+        np.abs(X[2], out=tmp)
+        np.maximum(peak_i, tmp, out=peak_i)
+        idx = ending.get(n + 1)
+        if idx is not None:
+            for arr, now in zip(result[:5], (X[3], X[4], X[0] - Q1, X[1], peak_i),
+                                strict=True):
+                arr[idx] = now[idx]
+            result[5][idx] = _bus_pair(X[5][idx, 0], X[4][idx])
+    if rec is not None:  # the last sample and its voltage (V is that of (2 n_max, X))
+        _record(rec, n_max, X, V)
+    return _finish(result, rec, drive.torque_per_amp)
+
+
+def _joint_arrays(c: _StepConstants, K: int, *names: str) -> np.ndarray:
+    """The named per-joint constants of ``c`` as one contiguous (len(names), K, nq) array."""
+    out = np.empty((len(names), K, c.stiff.size))
+    for row, name in zip(out, names, strict=True):
+        row[...] = c.joint[name]
+    return out
+
+
+def _state_views(x: np.ndarray) -> tuple:
+    """(x, q̇, i, (q, q̇), (q̇, i), qᵀ, q̇ᵀ) of a state array, made once."""
+    return x, x[1], x[2], x[0:2], x[1:3], x[0].T, x[1].T
+
+
+def _derivative_views(k: np.ndarray) -> tuple:
+    """(q̇ row, q̈ row transposed for ABA, di/dt, P⁺, P rows, B⁺' column) of a derivative
+    array."""
+    return k[0], k[1].T, k[2], k[3], k[4], k[5][:, 0]
+
+
+def _rk4_stepper(c: _StepConstants, W_rows: list, X: np.ndarray, V: np.ndarray, h: float,
+                 pool: pin.ModelPool, aba_threads: int):
+    """``step(n)``: one RK4 step n of :func:`integrate_tables` on the state X (6, K, nq), in
+    place, with the voltage rows ``W_rows`` (grid rows 2n, 2n+1, 2n+2); on return, and after
+    every step, ``V`` holds the voltage of X's state (the next step's first stage).
+
+    The stage formulas are those in :func:`integrate_tables`'s docstring; buffers, views and
+    full-shape constants are made here once, before the loop."""
+    _, K, nq = X.shape
     any_stiff, all_stiff, saturate, stiff = c.any_stiff, c.all_stiff, c.saturate, c.stiff
     classical = not all_stiff
-
-    def full(*names: str) -> np.ndarray:
-        """The named per-joint constants as one contiguous (len(names), K, nq) array."""
-        out = np.empty((len(names), K, nq))
-        for row, name in zip(out, names, strict=True):
-            row[...] = c.joint[name]
-        return out
-
-    kpkd = full("kp", "kd")  # × (q, q̇)
-    dampktn = full("damp", "ktn")  # × (q̇, i)
-    lo, hi = full("lo", "hi")
-    kel_rl = full("ke_l", "r_l") if classical else None  # × (q̇, i)
-    inv_l = full("inv_l")[0] if classical else None
+    kpkd = _joint_arrays(c, K, "kp", "kd")  # × (q, q̇)
+    dampktn = _joint_arrays(c, K, "damp", "ktn")  # × (q̇, i)
+    lo, hi = _joint_arrays(c, K, "lo", "hi")
+    kel_rl = _joint_arrays(c, K, "ke_l", "r_l") if classical else None  # × (q̇, i)
+    inv_l = _joint_arrays(c, K, "inv_l")[0] if classical else None
     wc_half = wc = None  # the stiff joints' stage weights (none without stiff joints)
     if any_stiff:
-        ke, inv_l_s, wc_half, wc, dec_half, dec, w0_half, w0 = full(
-            "ke", "inv_l_stiff", "wc_half", "wc", "decay_half", "decay", "w0_half", "w0")
+        ke, inv_l_s, wc_half, wc, dec_half, dec, w0_half, w0 = _joint_arrays(
+            c, K, "ke", "inv_l_stiff", "wc_half", "wc", "decay_half", "decay", "w0_half", "w0")
     rows = 3 if classical else 2  # the stiff currents come from the exponential update
     half_h = np.full((rows, K, nq), 0.5 * h)
     step_h = np.full((rows, K, nq), h)
@@ -249,38 +298,16 @@ def integrate_tables(
     weight = np.full((6, K, nq), h / 6.0)
     zero = np.zeros((K, nq))
     zero_k = np.zeros(K)
-
-    X = np.zeros((6, K, nq))  # row 5: B⁺ in column 0, the other columns stay 0
-    X[0] = Q0
-    X[2] = i0
     Xs = np.zeros_like(X)
     k1, k2, k3, k4 = (np.zeros_like(X) for _ in range(4))
-    V = np.empty((K, nq))
-    qv_prod = np.empty((2, K, nq))  # (Kp q, Kd q̇)
-    vi_prod = np.empty((2, K, nq))  # (n²B q̇, n Kt i)
-    vi_prod2 = np.empty((2, K, nq))  # (n Ke/L q̇, R/L i)
-    tmp = np.empty((K, nq))
-    trq = np.empty((K, nq))
-    nc = np.empty((K, nq))  # forcing N at the stage (stiff joints)
+    qv_kp, qv_kd = qv_prod = np.empty((2, K, nq))  # (Kp q, Kd q̇)
+    vi_damp, vi_ktn = vi_prod = np.empty((2, K, nq))  # (n²B q̇, n Kt i)
+    vi_kel, vi_rl = vi_prod2 = np.empty((2, K, nq))  # (n Ke/L q̇, R/L i)
+    tmp, trq, nc, i_new = (np.empty((K, nq)) for _ in range(4))  # nc: stiff forcing N
     base_half, base_full, base_tmp = (np.empty((K, nq)) for _ in range(3))
-    i_new = np.empty((K, nq))
-    W_rows = list(W)
     multiply, subtract, add = np.multiply, np.subtract, np.add
     maximum, minimum, copyto, aba = np.maximum, np.minimum, np.copyto, pin.abaInParallel
     trq_t = trq.T
-
-    def state_views(x: np.ndarray) -> tuple:
-        """(x, q̇, i, (q, q̇), (q̇, i), qᵀ, q̇ᵀ) of a state array, made once."""
-        return x, x[1], x[2], x[0:2], x[1:3], x[0].T, x[1].T
-
-    def derivative_views(k: np.ndarray) -> tuple:
-        """(q̇ row, q̈ row transposed for ABA, di/dt, P⁺, P rows, B⁺' column) of a
-        derivative array."""
-        return k[0], k[1].T, k[2], k[3], k[4], k[5][:, 0]
-
-    qv_kp, qv_kd = qv_prod
-    vi_damp, vi_ktn = vi_prod
-    vi_kel, vi_rl = vi_prod2
 
     def voltage(j: int, x: tuple) -> None:
         """V at state ``x`` and grid row j; with stiff joints also their forcing N."""
@@ -332,21 +359,7 @@ def integrate_tables(
             current(ss, wgt, base)
         derivative(ss, k)
 
-    xr, xsr = X[:rows], Xs[:rows]
-    k1r, k2r, k3r = k1[:rows], k2[:rows], k3[:rows]
-    i_now = X[2]
-    sx, ss = state_views(X), state_views(Xs)
-    kv1, kv2, kv3, kv4 = (derivative_views(k) for k in (k1, k2, k3, k4))
-
-    peak_i = np.abs(X[2])
-    rec = None
-    if record:
-        rec = [np.empty((n_max + 1, K, nq)) for _ in range(6)]
-        rec.append(np.empty((n_max + 1, K, 2)))
-    result = [np.empty((K, nq)) for _ in range(5)] + [np.empty((K, 2))]
-    ending = {int(n): np.flatnonzero(N == n) for n in np.unique(N)}
-    voltage(0, sx)
-    for n in range(n_max):
+    def rk4_step(n: int) -> None:
         j = 2 * n
         if any_stiff:  # e^{cz} i(t) + w₀ N(t), with N(t) of this state (in nc)
             multiply(i_now, dec_half, out=base_half)
@@ -356,8 +369,6 @@ def integrate_tables(
             multiply(nc, w0, out=base_tmp)
             add(base_full, base_tmp, out=base_full)
         derivative(sx, kv1)
-        if rec is not None:
-            _record(rec, n, X, V)
         stage(k1r, half_h, j + 1, wc_half, base_half, kv2)
         stage(k2r, half_h, j + 1, wc_half, base_half, kv3)
         stage(k3r, step_h, j + 2, wc, base_full, kv4)
@@ -370,17 +381,14 @@ def integrate_tables(
         voltage(j + 2, sx)  # the end state: also the next step's first stage
         if any_stiff:
             current(sx, wc, base_full)
-        np.abs(i_now, out=tmp)
-        maximum(peak_i, tmp, out=peak_i)
-        idx = ending.get(n + 1)
-        if idx is not None:
-            for arr, now in zip(result[:5], (X[3], X[4], X[0] - Q1, X[1], peak_i),
-                                strict=True):
-                arr[idx] = now[idx]
-            result[5][idx] = _bus_pair(X[5][idx, 0], X[4][idx])
-    if rec is not None:  # the last sample and its voltage (V is that of (2 n_max, X))
-        _record(rec, n_max, X, V)
-    return _finish(result, rec, drive.torque_per_amp)
+
+    xr, xsr = X[:rows], Xs[:rows]
+    k1r, k2r, k3r = k1[:rows], k2[:rows], k3[:rows]
+    i_now = X[2]
+    sx, ss = _state_views(X), _state_views(Xs)
+    kv1, kv2, kv3, kv4 = (_derivative_views(k) for k in (k1, k2, k3, k4))
+    voltage(0, sx)
+    return rk4_step
 
 
 def _finish(result: list[np.ndarray], rec: list[np.ndarray] | None, torque_per_amp):

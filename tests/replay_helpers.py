@@ -39,13 +39,37 @@ def track(clip: dict, name: str) -> tuple[list, list]:
     return [k["time"] for k in tr["keys"]], [k["value"] for k in tr["keys"]]
 
 
+#: Put first into the copy of a page that the tests render: ``performance.now`` — which
+#: the viewer's animation clock (THREE.Clock) reads — follows Chromium's virtual time, in
+#: 10 ms ticks of a ``setInterval`` (timers run on virtual time), instead of the wall clock.
+#: ``--virtual-time-budget`` fast-forwards timers but not ``performance.now``: without this
+#: the motion's progress when the budget ran out depended on the machine's load (seen in
+#: CI: after a 1 s budget the replay stood at 1.7–3.2 s, with 2 busy cores).
+_VIRTUAL_CLOCK = """<script>
+(function () {
+    let now = 0;
+    performance.now = function () { return now; };
+    setInterval(function () { now += 10; }, 10);
+})();
+</script>"""
+
+
+def on_virtual_clock(page: Path, out: Path) -> Path:
+    """``out``: a copy of ``page`` whose animation runs on virtual time
+    (:data:`_VIRTUAL_CLOCK`, placed first in <head>); the page itself is unchanged."""
+    text = page.read_text(encoding="utf-8")
+    head = text.index("<head>") + len("<head>")
+    out.write_text(text[:head] + _VIRTUAL_CLOCK + text[head:], encoding="utf-8")
+    return out
+
+
 def screenshots(
     pages: dict[str, Path], tmp: Path, virtual_time_ms: int = 5000
 ) -> dict[str, np.ndarray]:
     """Render each page with headless Chromium (in parallel); name → (600, 800, 3) uint8.
 
-    The picture is taken after ``virtual_time_ms`` of the page's virtual time (the
-    animation plays in it)."""
+    The picture is taken after ``virtual_time_ms`` of the page's virtual time, on which
+    the animation plays (:func:`on_virtual_clock`)."""
     from PIL import Image
 
     if not os.path.exists(CHROMIUM):
@@ -61,7 +85,7 @@ def screenshots(
             f"--virtual-time-budget={virtual_time_ms}",
             # No host name resolves: the page must render from the file alone.
             "--host-resolver-rules=MAP * ~NOTFOUND",
-            page.resolve().as_uri(),
+            on_virtual_clock(page, tmp / f"{name}-virtual-clock.html").resolve().as_uri(),
         ]
         procs[name] = (png, subprocess.Popen(args, stdout=subprocess.PIPE,
                                               stderr=subprocess.STDOUT))
@@ -102,7 +126,8 @@ def line_points(command: dict) -> np.ndarray:
 
 def dump_dom(page: Path, tmp: Path, virtual_time_ms: int) -> str:
     """The DOM of ``page`` after ``virtual_time_ms`` of virtual time in headless Chromium
-    (compositor frames run, so requestAnimationFrame callbacks and the animation advance)."""
+    (compositor frames run, so requestAnimationFrame callbacks and the animation, on
+    virtual time (:func:`on_virtual_clock`), advance)."""
     if not os.path.exists(CHROMIUM):
         pytest.fail(f"{CHROMIUM} not found: install the Debian package 'chromium' (.ci/run does)")
     args = [
@@ -111,7 +136,8 @@ def dump_dom(page: Path, tmp: Path, virtual_time_ms: int) -> str:
         f"--user-data-dir={tmp / ('profile-dom-' + page.stem + str(virtual_time_ms))}",
         "--run-all-compositor-stages-before-draw", "--window-size=800,600", "--dump-dom",
         f"--virtual-time-budget={virtual_time_ms}", "--host-resolver-rules=MAP * ~NOTFOUND",
-        page.resolve().as_uri(),
+        on_virtual_clock(page, tmp / f"{page.stem}-{virtual_time_ms}-virtual-clock.html")
+        .resolve().as_uri(),
     ]
     proc = subprocess.run(args, capture_output=True, timeout=90)
     assert proc.returncode == 0, proc.stderr.decode(errors="replace")[-2000:]

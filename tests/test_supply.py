@@ -203,19 +203,24 @@ def test_planning_for_the_bus_never_loses_to_repricing(eager_shared):
     assert "energy optimum (refined per joint)" in names, names
 
 
-def test_unequal_ke_over_kt_eager_reweights_exactly(tmp_path):
-    """Motors whose Ke/Kt differ by ±10 % between joints have no exact physical potential
-    (§3i): some edges stay negative after φ. With every edge evaluated, Johnson's shift on
-    top of φ makes the costs non-negative, and the optimum is Bellman–Ford's on the raw
-    costs."""
+def test_unequal_ke_over_kt_lazy_falls_back_to_eager_and_reweights_exactly(tmp_path):
+    """Motors whose Ke/Kt differ by ±20 % between joints have no exact physical potential
+    (§3i): some edges stay negative after φ, and the lazy search meets one. The run then
+    evaluates every edge; Johnson's shift on top of φ makes the costs non-negative, the run
+    says why, and the optimum is Bellman–Ford's on the raw costs of the saved roadmap — the
+    same as a run asked to be eager."""
     scn = mp.load_scenario("quickstart")
-    motors = [dataclasses.replace(m, Ke=m.Kt * (0.9 if k % 2 else 1.1))
+    motors = [dataclasses.replace(m, Ke=m.Kt * (0.8 if k % 2 else 1.2))
               for k, m in enumerate(scn.drive().motor_list)]
     scn = dataclasses.replace(scn, motor=motors, supply=mp.Supply("shared", 1.0))
     cache = tmp_path / "rm.npz"
-    plan = mp.plan(scn, show_progress=False, evaluation="eager", collision="eager",
-                   cache=cache, refine=False)
+    plan = mp.plan(scn, show_progress=False, cache=cache, refine=False)  # lazy, the default
+    record = plan.to_dict()["roadmap"]
+    assert record["evaluation"] == "eager"
+    (note,) = record["evaluation_notes"]
+    assert note.startswith("the lazy search met an edge") and "every edge evaluated" in note
     rm = Roadmap.load(cache)
+    assert rm.evaluated.all() and record["edges_evaluated"] >= rm.num_edges
     c = rm.bus[:, 0] - rm.bus[:, 1]
     phi = node_potential(scn.drive(), rm.nodes)
     assert (c + phi[rm.src] - phi[rm.dst] < -1e-6).sum() > 0  # φ alone is not enough here
@@ -224,6 +229,9 @@ def test_unequal_ke_over_kt_eager_reweights_exactly(tmp_path):
         G.add_edge(u, v, weight=w)
     ref = nx.bellman_ford_path_length(G, rm.start, rm.goal)
     assert plan.roadmap_path.total_energy == pytest.approx(ref, rel=1e-9)
+    eager = mp.plan(scn, show_progress=False, evaluation="eager", cache=cache, refine=False)
+    assert eager.roadmap_path.nodes == plan.roadmap_path.nodes
+    assert eager.roadmap_path.total_energy == plan.roadmap_path.total_energy
 
 
 def test_johnson_shift_and_negative_cycles():

@@ -38,10 +38,12 @@ from ..collision import CollisionChecker
 from ..dynamics import EnergyCost
 from ..dynamics.motor import Drive
 from ..errors import NoPathError
+from ..planning.evaluate import complete_checks, complete_roadmap
 from ..planning.execution import ExecutionResult, execute
 from ..planning.hazards import HazardResult, plan_avoiding_hazards
 from ..planning.lazy import CostView, LazyEdges
 from ..planning.roadmap import Roadmap, build_roadmap
+from ..planning.supply_costs import NegativeCostError, attach_supply
 from ..search import PLANNERS
 from ..world import World
 from .scenario import EnergyScenario
@@ -201,7 +203,16 @@ def plan_path(scn: EnergyScenario, setup: Setup) -> PlanResult:
     (:func:`refusal_note`)."""
     try:
         if setup.lazy is not None:
-            return _plan_lazy(scn, setup, "energy")
+            try:
+                return _plan_lazy(scn, setup, "energy")
+            except NegativeCostError as exc:
+                u, v = exc.edge
+                evaluate_eagerly(setup, scn, (
+                    f"the lazy search met an edge (node {u} -> node {v}, {exc.cost:.6g} J) "
+                    "below the node potential's difference, which keeps costs with "
+                    "regeneration >= 0 only when every joint's motor has one Ke/Kt: every "
+                    "edge evaluated instead, which makes all costs >= 0 exactly "
+                    "(docs/design.md §3i)"))
         return _plan_on(scn, setup, setup.roadmap)
     except NoPathError as exc:
         if setup.lazy is None:
@@ -212,6 +223,24 @@ def plan_path(scn: EnergyScenario, setup: Setup) -> PlanResult:
                                 scn.options.arrival_tolerance, simulated=lazy.count.simulated)
         text = no_path_message(str(exc), scn, setup)
         raise NoPathError(f"{text}; {note}" if note else text) from None
+
+
+def evaluate_eagerly(setup: Setup, scn: EnergyScenario, why: str) -> None:
+    """Make a lazy ``setup`` eager, in place: every edge of its roadmap collision-checked
+    and simulated (the edges simulated so far reused, the refused ones dropped), priced
+    again with every cost known — with regeneration, Johnson's shift on top of the node
+    potential makes them all >= 0 exactly (docs/design.md §3i) — and the roadmap file
+    rewritten; the world is back to its initial map and ``why`` joins ``setup.notes``."""
+    lazy = setup.lazy
+    setup.world.reset()
+    roadmap = lazy.roadmap.without_edges(lazy.refused)
+    roadmap = complete_checks(roadmap, setup.checker, scn.options.resolution, lazy.progress)
+    roadmap = attach_supply(complete_roadmap(setup.cost, roadmap, scn.options, lazy.progress),
+                            setup.drive)
+    if setup.cache is not None:
+        roadmap.save(setup.cache)
+    setup.roadmap, setup.lazy, setup.evaluation, setup.collision = roadmap, None, "eager", "eager"
+    setup.notes.append(why)
 
 
 _NO_PATH = re.compile(r"no path from node (\d+) to node (\d+)")

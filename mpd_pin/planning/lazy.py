@@ -35,6 +35,7 @@ from ..progress import bar
 from ..search import Graph, Path, Planner
 from .evaluate import SMALL_BATCH, certify_pairs, edge_target, evaluate_edges
 from .roadmap import Roadmap, RoadmapOptions
+from .supply_costs import NegativeCostError
 
 __all__ = ["LazyEdges", "CostView", "LandmarkHeuristic", "SAFETY", "SMALL_BATCH",
            "evaluate_edges", "lazy_plan"]
@@ -235,10 +236,11 @@ class LazyEdges:
         if np.any(true < 0):  # the searches and the bounds need costs >= 0 (§3i)
             k = int(ids[np.flatnonzero(true < 0)[0]])
             rm = self.roadmap
-            raise ValueError(f"edge {int(rm.src[k])} -> {int(rm.dst[k])} costs "
-                             f"{float(rm.edge_costs([k])[0]):.6g} J < 0; the searches need "
-                             "costs >= 0 (a supply with regeneration is reweighted by the "
-                             "node potential, docs/design.md §3i)")
+            c = float(true[np.flatnonzero(true < 0)[0]])
+            raise NegativeCostError(f"edge {int(rm.src[k])} -> {int(rm.dst[k])} costs "
+                                    f"{c:.6g} J < 0; the searches need costs >= 0 (a supply "
+                                    "with regeneration is reweighted by the node potential, "
+                                    "docs/design.md §3i)", (int(rm.src[k]), int(rm.dst[k])), c)
         lb = self.lower[ids]
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(true > 0, lb / np.where(true > 0, true, 1.0),

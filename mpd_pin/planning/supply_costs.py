@@ -5,7 +5,8 @@ searches see costs >= 0 even when regeneration makes some edges pay back.
 * :func:`attach_supply` sets a roadmap's supply and potential: the physical φ(q) =
   ρ PE(q) + Σ ½ L i_hold(q)² (:func:`~mpd_pin.dynamics.supply.node_potential`), plus, when
   every edge is evaluated, Johnson's shift (:func:`johnson_shift`);
-* :func:`reweighted` gives c + φ(src) − φ(dst) and refuses a real negative.
+* :func:`reweighted` gives c + φ(src) − φ(dst) and refuses a real negative
+  (:class:`NegativeCostError`; a lazy run then evaluates every edge, ``app/plan.py``).
 """
 
 from __future__ import annotations
@@ -19,7 +20,19 @@ from ..dynamics.supply import node_potential, supply_energy
 if TYPE_CHECKING:
     from .roadmap import Roadmap
 
-__all__ = ["attach_supply", "johnson_shift", "reweighted"]
+__all__ = ["NegativeCostError", "attach_supply", "johnson_shift", "reweighted"]
+
+
+class NegativeCostError(ValueError):
+    """An evaluated edge costs less than the node potential allows: only possible with
+    regeneration and motors whose Ke/Kt differ between joints, and only corrected when every
+    edge is evaluated (Johnson's shift, :func:`attach_supply`; docs/design.md §3i).
+    ``edge``: its (source, destination) node ids; ``cost``: its supply energy (J)."""
+
+    def __init__(self, message: str, edge: tuple[int, int], cost: float) -> None:
+        super().__init__(message)
+        self.edge = edge
+        self.cost = cost
 
 
 def reweighted(c: np.ndarray, potential: np.ndarray | None, src: np.ndarray,
@@ -43,14 +56,14 @@ def reweighted(c: np.ndarray, potential: np.ndarray | None, src: np.ndarray,
         bad = low & (out < -tol)
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
-            raise ValueError(
+            raise NegativeCostError(
                 f"an edge from node {int(src[k])} to node {int(dst[k])} costs "
                 f"{float(c[k]):.6g} J, below the potential difference "
                 f"{float(phi1[k] - phi0[k]):.6g} J that makes costs with regeneration "
                 "non-negative (docs/design.md §3i): the motors' Ke/Kt differ between "
                 "joints or the edge ends far from rest; use [roadmap] evaluation = "
                 "\"eager\" (which reweights every cost exactly), regeneration = 0 or "
-                "motors with one Ke/Kt")
+                "motors with one Ke/Kt", (int(src[k]), int(dst[k])), float(c[k]))
         out = np.where(low, 0.0, out)
     return out
 

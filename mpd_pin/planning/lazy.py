@@ -234,9 +234,8 @@ class LazyEdges:
             return False
         true = self.roadmap.edge_costs(ids)
         if np.any(true < 0):  # the searches and the bounds need costs >= 0 (§3i)
-            k = int(ids[np.flatnonzero(true < 0)[0]])
-            rm = self.roadmap
-            c = float(true[np.flatnonzero(true < 0)[0]])
+            j = int(np.flatnonzero(true < 0)[0])
+            k, c, rm = int(ids[j]), float(true[j]), self.roadmap
             raise NegativeCostError(f"edge {int(rm.src[k])} -> {int(rm.dst[k])} costs "
                                     f"{c:.6g} J < 0; the searches need costs >= 0 (a supply "
                                     "with regeneration is reweighted by the node potential, "

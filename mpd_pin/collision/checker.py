@@ -515,6 +515,13 @@ class CollisionChecker:
             )
         return self._cert
 
+    def distance_setup(self) -> tuple[pin.GeometryModel, PairState]:
+        """The certification geometry (nearly convex arm meshes as their convex hulls) and
+        the current pair state (which pairs are enforced, with which margin in m): what
+        :class:`~mpd_pin.collision.distance.PairDistances` measures (docs/design.md §9g)."""
+        self._sync()
+        return self._cert_model().gm, self._state
+
     def box_sizes(self, C: Any, Delta: Any) -> np.ndarray:
         """(B,) normalised size (rad) of the joint-space boxes ``C ± Delta`` (each row one
         box): the level :meth:`boxes_clear` needs (docs/design.md §4d, "Curves")."""

@@ -1,0 +1,496 @@
+"""Trajectory optimisation at a fixed duration, then certification (docs/design.md §9g).
+
+A motion of duration T is one clamped quintic B-spline in time, q(t) = Σ_i c_i N_i(t/T),
+with ``n_c`` control points per joint on uniform knots; the first three and the last three
+control points are the start and the goal, so q̇ = q̈ = 0 at both ends and the motion
+leaves and joins the holding state as every other motion does. The free control points
+x minimise the perfect-tracking supply energy (the screen of §9e/§9c, paper 000 eq. 2)
+
+    E(x) = ∫₀ᵀ Σ_k s(V_ff,k i_ff,k) dt          (a supply per joint; s ≈ max(·, 0))
+    E(x) = ∫₀ᵀ s(P) − η s(−P) dt, P = Σ_k V_ff,k i_ff,k     (a shared bus, §3i)
+
+by Simpson's rule, with s a softplus of sharpness ``sharpness``/P_scale, subject to
+
+* signed distance d_p(q(t_s)) ≥ margin_p + ``margin`` for every pair p the checker
+  enforces (obstacles, self-collision, hazards with their clearance) at collision
+  samples t_s, the pairs within ``activation`` of it (re-chosen each round);
+* |q̇| ≤ ``velocity_fraction`` · v_lim at the energy samples where the seed comes within
+  half the limit (linear in x);
+* |τ_ff| ≤ ``effort_fraction`` · τ_lim at the energy samples where the seed comes within
+  half the limit;
+* the joint range on the control points themselves (bounds; convex hull again).
+
+Gradients are analytic: q, q̇, q̈, q⃛ are linear in x through the basis matrices;
+``pin.computeRNEADerivatives`` gives ∂τ/∂q, ∂τ/∂q̇ and M = ∂τ/∂q̈; the L·τ̇ term of V_ff
+differentiates through d/dt of ∂τ/∂x along the sample grid (second order); distances
+through the witness points (:mod:`mpd_pin.collision.distance`). The solver is scipy's
+SLSQP (design §9g says why). The result is certified by the Bernstein boxes of §9c and
+simulated with the RK4 of §3; it is kept only when certified, within the limits and
+cheaper *simulated* than its seed.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+from scipy.interpolate import BSpline
+from scipy.optimize import minimize
+
+from ..dynamics.motor import Drive
+from ..dynamics.supply import supply_energy
+from .energy import MotionEnergy, _first_failure, _limits, _simulate_nonstop, _snap
+from .spline import ViaSpline
+
+__all__ = ["OptimizeSettings", "OptimizedMotion", "optimize_curve", "spline_curve",
+           "fit_curve"]
+
+DEGREE = 5
+
+
+@dataclass(frozen=True)
+class OptimizeSettings:
+    """Settings of the trajectory optimisation (docs/design.md §9g).
+
+    control_points: per joint (0: from the seed, 16–24); samples: Simpson intervals of the
+    energy integral (even); collision_samples: times the distances are constrained at
+    (0: 4 per knot span); margin: clearance (m) beyond each pair's own margin;
+    activation: pairs closer than this (m) at a collision sample are constrained;
+    velocity_fraction, effort_fraction: of the URDF limits; max_iterations: SLSQP
+    iterations per round; rounds: at most, each adding the pairs its start comes near;
+    tolerance: SLSQP's ftol on the energy relative to the seed's; sharpness: of the
+    softplus, relative to the seed's peak power; retries: solves with a doubled margin
+    after a failed certificate.
+    """
+
+    control_points: int = 0
+    samples: int = 96
+    collision_samples: int = 0
+    margin: float = 0.01
+    activation: float = 0.06
+    velocity_fraction: float = 0.99
+    effort_fraction: float = 0.95
+    max_iterations: int = 40
+    rounds: int = 4
+    tolerance: float = 1e-5
+    sharpness: float = 200.0
+    retries: int = 1
+
+
+@dataclass
+class OptimizedMotion:
+    """The outcome of one optimisation: the motion (None when the seed is kept), and the
+    record of ``motion.optimization`` (docs/design.md §9g)."""
+
+    motion: MotionEnergy | None
+    record: dict[str, Any] = field(default_factory=dict)
+
+
+# ----------------------------------------------------------------------------- basis
+def _knots(n_c: int) -> np.ndarray:
+    """Clamped uniform knots on [0, 1] for ``n_c`` control points of degree 5."""
+    inner = np.linspace(0.0, 1.0, n_c - DEGREE + 1)
+    return np.concatenate([np.zeros(DEGREE), inner, np.ones(DEGREE)])
+
+
+def _basis(knots: np.ndarray, n_c: int, tau: np.ndarray, nu: int) -> np.ndarray:
+    """(len(tau), n_c): the ν-th derivative (per unit of τ) of every basis function."""
+    b = BSpline(knots, np.eye(n_c), DEGREE, extrapolate=False)
+    out = b.derivative(nu)(tau) if nu else b(tau)
+    return np.nan_to_num(out)
+
+
+def spline_curve(knots: np.ndarray, C: np.ndarray, duration: float) -> ViaSpline:
+    """The curve of control points ``C`` (n_c, nq) on unit ``knots``, as a
+    :class:`~mpd_pin.motion.spline.ViaSpline` of duration ``duration`` (s) at unit stretch:
+    its ``waypoints`` are the curve at its breakpoints, so it simulates, certifies and
+    records like every non-stop piece."""
+    T = float(duration)
+    spl = BSpline(np.asarray(knots, float) * T, np.asarray(C, float), DEGREE)
+    times = np.unique(spl.t)
+    times = times[(times >= 0) & (times <= T)]
+    return ViaSpline(spl(times), times, spl)
+
+
+def fit_curve(q_of_tau, n_c: int, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+    """Control points (n_c, nq) whose curve fits ``q_of_tau`` (τ ∈ [0, 1] → (…, nq) rad) in
+    least squares, the first and last three fixed at ``q0`` and ``q1``."""
+    knots = _knots(n_c)
+    tau = np.linspace(0.0, 1.0, 8 * n_c)
+    B = _basis(knots, n_c, tau, 0)
+    target = np.asarray(q_of_tau(tau), float)
+    C = np.empty((n_c, q0.size))
+    C[:3], C[-3:] = q0, q1
+    rhs = target - B[:, :3] @ C[:3] - B[:, -3:] @ C[-3:]
+    C[3:-3] = np.linalg.lstsq(B[:, 3:-3], rhs, rcond=None)[0]
+    return C
+
+
+# ----------------------------------------------------------------------------- problem
+class _Problem:
+    """The discretised problem of one seed (module docstring): objective, constraints and
+    their Jacobians in the free control points x (flattened (n_c − 6, nq), row-major)."""
+
+    def __init__(self, drive: Drive, distances, C0: np.ndarray, T: float,
+                 settings: OptimizeSettings) -> None:
+        self.drive, self.dist, self.T, self.s = drive, distances, float(T), settings
+        self.model = drive.model
+        self.data = self.model.createData()
+        n_c, nq = C0.shape
+        self.n_c, self.nq, self.nf = n_c, nq, n_c - 6
+        self.knots = _knots(n_c)
+        self.C_fixed = C0.copy()
+        S = int(settings.samples) + int(settings.samples) % 2
+        self.tau = np.linspace(0.0, 1.0, S + 1)
+        w = np.ones(S + 1)
+        w[1:-1:2], w[2:-1:2] = 4.0, 2.0
+        self.w = w * (self.T / (3.0 * S))  # Simpson weights in s
+        self.h = self.T / S
+        self.B = [_basis(self.knots, n_c, self.tau, nu) / self.T**nu for nu in range(4)]
+        self.Bf = [b[:, 3:-3] for b in self.B]
+        n_col = settings.collision_samples or 4 * (n_c - DEGREE)
+        self.tau_c = np.linspace(0.0, 1.0, n_col + 2)[1:-1]
+        self.Bc = _basis(self.knots, n_c, self.tau_c, 0)
+        self.vlim, self.elim = _limits(drive)
+        self.supply = drive.supply
+        self._cache: dict[str, Any] = {}
+        self.active: list[np.ndarray] = [np.zeros(0, np.int64)] * self.tau_c.size
+        self.effort_rows = np.zeros((0, 2), np.int64)
+        self.velocity_rows = np.zeros((0, 2), np.int64)
+        self.beta = 1.0
+
+    # -- variables
+    def C(self, x: np.ndarray) -> np.ndarray:
+        C = self.C_fixed.copy()
+        C[3:-3] = x.reshape(self.nf, self.nq)
+        return C
+
+    def x0(self) -> np.ndarray:
+        return self.C_fixed[3:-3].ravel().copy()
+
+    def bounds(self) -> list[tuple[float, float]]:
+        lo = np.asarray(self.drive.arm.lower_limits, float)
+        hi = np.asarray(self.drive.arm.upper_limits, float)
+        lo = np.where(np.isfinite(lo), lo, -1e3)
+        hi = np.where(np.isfinite(hi), hi, 1e3)
+        return list(zip(np.tile(lo, self.nf), np.tile(hi, self.nf), strict=True))
+
+    # -- dynamics along the samples
+    def _dynamics(self, x: np.ndarray) -> dict[str, np.ndarray]:
+        key = x.tobytes()
+        if self._cache.get("key") == key:
+            return self._cache
+        C = self.C(x)
+        q, v, a, j = (b @ C for b in self.B)
+        S1, nq = q.shape
+        tau = np.empty((S1, nq))
+        dq = np.empty((S1, nq, nq))
+        dv = np.empty((S1, nq, nq))
+        M = np.empty((S1, nq, nq))
+        model, data = self.model, self.data
+        for s in range(S1):
+            r = pin.computeRNEADerivatives(model, data, q[s], v[s], a[s])
+            tau[s] = data.tau
+            dq[s], dv[s], M[s] = r[0], r[1], r[2]
+        drv = self.drive
+        tau_ff = tau + drv.damping * v
+        dtau_ff = (np.einsum("sab,sb->sa", dq, v) + np.einsum("sab,sb->sa", dv, a)
+                   + np.einsum("sab,sb->sa", M, j) + drv.damping * a)
+        kt = drv.torque_per_amp
+        i = tau_ff / kt
+        V = drv.R * i + drv.L * dtau_ff / kt + drv.emf_per_rad_s * v
+        self._cache = {"key": key, "q": q, "v": v, "a": a, "tau": tau_ff, "i": i, "V": V,
+                       "P": V * i, "dq": dq, "dv": dv, "M": M}
+        return self._cache
+
+    def _dtau_dx(self, d: dict) -> np.ndarray:
+        """∂τ_ff/∂x (S+1, nq, nf, nq): joint a's torque at sample s against the free
+        control point i of joint b."""
+        if "dtau" in d:
+            return d["dtau"]
+        B0, B1, B2 = self.Bf[0], self.Bf[1], self.Bf[2]
+        G = (d["dq"][:, :, None, :] * B0[:, None, :, None]
+             + d["dv"][:, :, None, :] * B1[:, None, :, None]
+             + d["M"][:, :, None, :] * B2[:, None, :, None])
+        damp = self.drive.damping
+        for a in range(self.nq):
+            G[:, a, :, a] += damp[a] * B1
+        d["dtau"] = G
+        return G
+
+    def _soft(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """softplus(P) (W) and its slope, sharpness ``beta`` (1/W)."""
+        z = self.beta * P
+        sp = (np.maximum(z, 0.0) + np.log1p(np.exp(-np.abs(z)))) / self.beta
+        return sp, 0.5 * (1.0 + np.tanh(0.5 * z))
+
+    def _power_weights(self, P: np.ndarray) -> tuple[float, np.ndarray]:
+        """The smoothed supply energy (J) and ∂E/∂P_k at each sample (s)."""
+        if self.supply.bus == "per_joint":
+            sp, slope = self._soft(P)
+            return float(self.w @ sp.sum(axis=1)), self.w[:, None] * slope
+        eta = self.supply.regeneration
+        Pb = P.sum(axis=1)
+        sp, slope = self._soft(Pb)
+        sn, slope_n = self._soft(-Pb)
+        E = float(self.w @ (sp - eta * sn))
+        g = self.w * (slope + eta * slope_n)
+        return E, np.repeat(g[:, None], self.nq, axis=1)
+
+    def energy(self, x: np.ndarray) -> float:
+        return self._power_weights(self._dynamics(x)["P"])[0]
+
+    def energy_grad(self, x: np.ndarray) -> np.ndarray:
+        d = self._dynamics(x)
+        _, wP = self._power_weights(d["P"])  # (S+1, nq)
+        G = self._dtau_dx(d)  # ∂τ/∂x
+        kt, drv = self.drive.torque_per_amp, self.drive
+        dG = np.gradient(G, self.h, axis=0, edge_order=2)  # ∂τ̇/∂x = d/dt ∂τ/∂x
+        di = G / kt[None, :, None, None]
+        dV = (drv.R / kt)[None, :, None, None] * G + (drv.L / kt)[None, :, None, None] * dG
+        B1 = self.Bf[1]
+        for a in range(self.nq):
+            dV[:, a, :, a] += drv.emf_per_rad_s[a] * B1
+        dP = dV * d["i"][:, :, None, None] + d["V"][:, :, None, None] * di
+        return np.einsum("sa,saib->ib", wP, dP).ravel()
+
+    # -- constraints (all as g(x) ≥ 0)
+    def choose_velocity_rows(self, x: np.ndarray) -> None:
+        v = self._dynamics(x)["v"]
+        self.velocity_rows = np.argwhere(np.abs(v) > 0.5 * self.vlim[None, :]).astype(np.int64)
+
+    def velocity(self) -> tuple[np.ndarray, np.ndarray]:
+        """Linear rows A x + b ≥ 0: |q̇_k(t_s)| ≤ f v_lim,k at the energy samples where the
+        round's start point is above half the limit."""
+        rows = self.velocity_rows
+        if not len(rows):
+            return np.zeros((0, self.nf * self.nq)), np.zeros(0)
+        s, k = rows[:, 0], rows[:, 1]
+        lim = self.s.velocity_fraction * self.vlim[k]
+        Cfix = self.C_fixed.copy()
+        Cfix[3:-3] = 0.0
+        const = (self.B[1] @ Cfix)[s, k]
+        A = np.zeros((len(s), self.nf, self.nq))
+        A[np.arange(len(s)), :, k] = self.Bf[1][s]
+        A = A.reshape(len(s), -1)
+        return np.vstack([-A, A]), np.concatenate([lim - const, lim + const])
+
+    def choose_effort_rows(self, x: np.ndarray) -> None:
+        tau = self._dynamics(x)["tau"]
+        near = np.argwhere(np.abs(tau) > 0.5 * self.elim[None, :])
+        self.effort_rows = near.astype(np.int64)
+
+    def effort(self, x: np.ndarray) -> np.ndarray:
+        if not len(self.effort_rows):
+            return np.zeros(0)
+        tau = self._dynamics(x)["tau"]
+        s, k = self.effort_rows[:, 0], self.effort_rows[:, 1]
+        lim = self.s.effort_fraction * self.elim[k]
+        return np.concatenate([lim - tau[s, k], lim + tau[s, k]])
+
+    def effort_jac(self, x: np.ndarray) -> np.ndarray:
+        if not len(self.effort_rows):
+            return np.zeros((0, self.nf * self.nq))
+        G = self._dtau_dx(self._dynamics(x))
+        s, k = self.effort_rows[:, 0], self.effort_rows[:, 1]
+        J = G[s, k].reshape(len(s), -1)
+        return np.vstack([-J, J])
+
+    def choose_pairs(self, x: np.ndarray) -> int:
+        """Add to the constrained (sample, pair) set those within ``activation`` (m) of
+        their margin at ``x`` (the set only grows, so a solve never forgets a pair it met);
+        returns how many rows were added."""
+        if self.dist is None or not self.dist.size:
+            return 0
+        Q = self.Bc @ self.C(x)
+        d = self.dist.distances(Q) - self.dist.margins[None, :]
+        added = 0
+        for s, row in enumerate(d):
+            near = np.flatnonzero(row < self.s.activation)
+            new = np.setdiff1d(near, self.active[s])
+            if new.size:
+                self.active[s] = np.union1d(self.active[s], new).astype(np.int64)
+                added += int(new.size)
+        self._cache.pop("collision", None)
+        return added
+
+    def _collision(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        key = x.tobytes()
+        c = self._cache.get("collision")
+        if c is not None and c[0] == key:
+            return c[1], c[2]
+        Q = self.Bc @ self.C(x)
+        dval, dq = self.dist.distances_and_gradients(Q, self.active)
+        owner = np.concatenate([np.full(len(a), s) for s, a in enumerate(self.active)]
+                               ).astype(np.int64) if dval.size else np.zeros(0, np.int64)
+        cols = np.concatenate(self.active) if dval.size else np.zeros(0, np.int64)
+        g = dval - self.dist.margins[cols] - self.s.margin
+        Bf = self.Bc[:, 3:-3]
+        J = (Bf[owner][:, :, None] * dq[:, None, :]).reshape(len(dval), -1)
+        self._cache["collision"] = (key, g, J)
+        return g, J
+
+    def collision(self, x: np.ndarray) -> np.ndarray:
+        return self._collision(x)[0]
+
+    def collision_jac(self, x: np.ndarray) -> np.ndarray:
+        return self._collision(x)[1]
+
+
+# ----------------------------------------------------------------------------- solve
+def _solve(prob: _Problem, x: np.ndarray, settings: OptimizeSettings) -> tuple[np.ndarray,
+                                                                               dict]:
+    """Rounds of SLSQP from ``x``. Each round adds the (sample, pair) rows, velocity and
+    effort rows its start point comes near; the solve ends when a round converges and its
+    end point adds no collision row. Returns the last iterate and counters."""
+    iters, status, msg = 0, 0, ""
+    prob.choose_effort_rows(x)
+    prob.choose_velocity_rows(x)
+    for _ in range(max(1, int(settings.rounds))):
+        added = prob.choose_pairs(x)
+        if iters and status == 0 and not added:
+            break
+        A, b = prob.velocity()
+        cons = []
+        if len(b):
+            cons.append({"type": "ineq", "fun": lambda z, A=A, b=b: A @ z + b,
+                         "jac": lambda z, A=A: A})
+        if any(len(a) for a in prob.active):
+            cons.append({"type": "ineq", "fun": prob.collision, "jac": prob.collision_jac})
+        if len(prob.effort_rows):
+            cons.append({"type": "ineq", "fun": prob.effort, "jac": prob.effort_jac})
+        scale = max(abs(prob.energy(x)), 1e-9)
+        res = minimize(lambda z: prob.energy(z) / scale, x,
+                       jac=lambda z: prob.energy_grad(z) / scale, method="SLSQP",
+                       bounds=prob.bounds(), constraints=cons,
+                       options={"maxiter": int(settings.max_iterations),
+                                "ftol": float(settings.tolerance)})
+        iters += int(res.nit)
+        status, msg = int(res.status), str(res.message)
+        x = np.asarray(res.x, float)
+    return x, {"iterations": iters, "solver_status": status, "solver_message": msg}
+
+
+def _control_points(settings: OptimizeSettings, via: int) -> int:
+    if settings.control_points:
+        return max(int(settings.control_points), 8)
+    return int(np.clip(12 + 2 * via, 16, 24))
+
+
+def optimize_curve(
+    drive: Drive,
+    checker: Any,
+    seed: ViaSpline,
+    duration: float,
+    options: Any,
+    *,
+    settings: OptimizeSettings | None = None,
+    seed_motion: MotionEnergy | None = None,
+    distances: Any = None,
+) -> OptimizedMotion:
+    """Optimise the motion of duration ``duration`` (s, on the dt grid) seeded by the curve
+    ``seed`` (stretched to that duration) and keep it when it is certified free by
+    ``checker`` (None: no obstacles), within the velocity, effort and arrival limits of
+    ``options`` (:class:`~mpd_pin.planning.roadmap.RoadmapOptions`) and cheaper than
+    ``seed_motion`` when simulated (docs/design.md §9g). ``distances``: a
+    :class:`~mpd_pin.collision.distance.PairDistances` of ``checker`` to reuse.
+    Never raises for a failed solve: the seed is kept and the record says why."""
+    from ..collision.distance import PairDistances
+
+    settings = settings or OptimizeSettings()
+    w0, c0 = time.perf_counter(), time.process_time()
+    dt = float(options.dt)
+    T = float(_snap(duration, dt))
+    q0, q1 = seed.waypoints[0], seed.waypoints[-1]
+    n_c = _control_points(settings, seed.waypoints.shape[0] - 2)
+    stretch = seed.unit_duration
+
+    def seed_q(tau):
+        return seed.spline(np.clip(tau, 0.0, 1.0) * stretch)
+
+    C0 = fit_curve(seed_q, n_c, q0, q1)
+    if checker is not None and distances is None:
+        distances = PairDistances(checker)
+    rec: dict[str, Any] = {"duration": T, "control_points": n_c,
+                           "seed_energy": None if seed_motion is None
+                           else float(seed_motion.total_energy)}
+    prob = _Problem(drive, distances, C0, T, settings)
+    x0 = prob.x0()
+    P0 = prob._dynamics(x0)["P"]
+    prob.beta = settings.sharpness / max(float(np.max(np.abs(P0))), 1e-9)
+    rec["screen_energy_in"] = prob.energy(x0)
+    margin = settings.margin
+    kept = None
+    x = x0
+    for attempt in range(int(settings.retries) + 1):
+        prob.s = _replace_margin(settings, margin)
+        try:
+            x, info = _solve(prob, x0 if attempt == 0 else x, prob.s)
+        except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
+            rec.update(kept_seed=True, why=f"solver failed: {exc}")
+            break
+        rec.update(info)
+        rec["screen_energy_out"] = prob.energy(x)
+        curve = spline_curve(prob.knots, prob.C(x), T)
+        if checker is not None:
+            fail = _first_failure(checker, curve, options.resolution)
+            if fail is not None:
+                rec["certified"] = False
+                rec["why"] = f"not certified free at t = {fail:.3f} s (margin {margin:g} m)"
+                margin *= 2.0
+                continue
+        rec["certified"] = True
+        kept = _price(drive, curve, T, options, seed)
+        break
+    rec.update(seconds=time.perf_counter() - w0, cpu_seconds=time.process_time() - c0,
+               margin=margin)
+    if kept is None:
+        rec.setdefault("why", "no certified optimum")
+        rec["kept_seed"] = True
+        return OptimizedMotion(None, rec)
+    rec["energy"] = float(kept.total_energy)
+    if not kept.feasible:
+        rec.update(kept_seed=True, why=f"the optimum is infeasible when simulated: "
+                   f"{kept.reason}")
+        return OptimizedMotion(None, rec)
+    if seed_motion is not None and seed_motion.feasible and (
+            kept.total_energy >= seed_motion.total_energy):
+        rec.update(kept_seed=True, why="no less energy than the seed when simulated")
+        return OptimizedMotion(None, rec)
+    rec["kept_seed"] = False
+    return OptimizedMotion(kept, rec)
+
+
+def _replace_margin(settings: OptimizeSettings, margin: float) -> OptimizeSettings:
+    from dataclasses import replace
+
+    return replace(settings, margin=float(margin))
+
+
+def _price(drive: Drive, curve: ViaSpline, T: float, options, seed: ViaSpline
+           ) -> MotionEnergy:
+    """Simulate the optimised curve at T (RK4, §3) and check it as a non-stop piece."""
+    vlim, elim = _limits(drive)
+    E, _, err, _, peak, B = _simulate_nonstop(drive, curve, np.array([T]), float(options.dt))
+    vel = curve.peak_speed_ratio(vlim) * curve.unit_duration / T
+    eff = float(np.max(peak[0] / elim))
+    e = float(np.max(np.abs(err[0])))
+    reasons = []
+    if options.effort_limits and eff > 1.0 + 1e-12:
+        reasons.append(f"effort limit exceeded ({eff:.3g}× the limit)")
+    if e > options.arrival_tolerance:
+        reasons.append(f"ends {e:.3g} rad from the goal")
+    if options.velocity_limits and vel > 1.0 + 1e-9:
+        reasons.append(f"velocity limit exceeded ({vel:.3g}×)")
+    total = float(supply_energy(drive.supply, E[0], B[0]))
+    W = curve.waypoints
+    m = W.shape[0] - 1
+    return MotionEnergy("nonstop", W, E[0].copy(), total, T, e, float(vel), eff, not reasons,
+                        0, [(0, m)], np.array([T]), "; ".join(reasons),
+                        energy_by_execution={"nonstop": total if not reasons else None},
+                        fastest=T if math.isfinite(T) else 0.0, bus_energy=B[0].copy(),
+                        supply=drive.supply, curve=curve)

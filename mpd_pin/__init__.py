@@ -58,6 +58,7 @@ _LAZY = {
     "Plan": "app.planned",
     "MpdPinError": "errors",
     "NoPathError": "errors",
+    "NoMotionWithinDuration": "errors",
 }
 
 #: public names defined under another name in their module

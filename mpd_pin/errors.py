@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 
 class MpdPinError(Exception):
     """Base class of every error raised on purpose by mpd_pin."""
@@ -9,3 +11,21 @@ class MpdPinError(Exception):
 
 class NoPathError(MpdPinError):
     """The goal cannot be reached from the start in the current graph."""
+
+
+class NoMotionWithinDuration(MpdPinError):
+    """No candidate motion runs within the ``max_duration`` asked for (a planning outcome,
+    not bad input; docs/design.md §9f). ``max_duration`` (s) is the cap; ``fastest`` (s)
+    the duration of the fastest motion found; ``plan`` the
+    :class:`~mpd_pin.app.planned.Plan` of that motion, priced without the cap (at its
+    fastest duration), whose ``to_dict()["feasible"]`` is False and ``to_dict()["reason"]``
+    says why. ``mpd-pin run`` writes that plan's files and exits with status 3."""
+
+    def __init__(self, message: str, fastest: float, plan: Any = None,
+                 max_duration: float | None = None) -> None:
+        super().__init__(message)
+        self.fastest = float(fastest)
+        self.plan = plan
+        self.max_duration = max_duration
+        #: result.json as written by ``mpd-pin run`` (None until saved)
+        self.result: dict[str, Any] | None = None

@@ -1,24 +1,30 @@
 """``mpd-pin energy SCENARIO PATHFILE``: pricing a path planned elsewhere (CSV or
 JointTrajectory JSON) on the quickstart arm; energies checked against
-``trajectory_energy`` and, independently, the roadmap's ``edge_energies``; every bad input
-one ``mpd-pin: error:`` line naming the row or joint, exit status 2."""
+``trajectory_energy`` and, independently, the roadmap's ``edge_energies``; a file with
+times priced with them ("timed"): a run's own trajectory.json against that run's
+result.json, and node times against the non-stop motion; every bad input one
+``mpd-pin: error:`` line naming the row or joint, exit status 2; an infeasible motion one
+line, exit status 3."""
 
 import csv
 import json
 import math
+import os
+import re
 import stat
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from conftest import _no_constant, run_cli
+from conftest import _no_constant, read_result, run_cli, run_once
 
 import mpd_pin as mp
 from mpd_pin.app import cli
 from mpd_pin.app.cli import main
 from mpd_pin.app.config import ConfigError
 from mpd_pin.app.kinds import load_scenario
-from mpd_pin.app.pathfile import check_path, read_waypoints
+from mpd_pin.app.pathfile import check_path, read_path_file, read_waypoints
+from mpd_pin.app.scenario_files import builtin_scenarios
 from mpd_pin.app.trajectory import (
     joint_trajectory,
     write_trajectory_csv,
@@ -99,7 +105,7 @@ def test_stop_energy_equals_trajectory_energy_and_edge_energies(qs, tmp_path, ca
     np.testing.assert_array_equal(doc["waypoints"], W)
     assert stat.S_IMODE(out.stat().st_mode) == 0o644
     e = doc["total_energy"]
-    assert stdout == (f"quickstart {path}: {e:.4g} J stop (stop {e:.4g} J), "
+    assert stdout == (f"quickstart {path}: {e:.4g} J stop, "
                       f"{doc['duration']:.2f} s, 1 stop -> {out}\n")
 
 
@@ -181,41 +187,226 @@ def test_auto_prices_both_executions(qs, tmp_path, capsys):
     assert f"J {doc['execution']} (stop " in stdout and ", nonstop " in stdout
 
 
-def test_infeasible_pricing_still_exits_0(qs, tmp_path, capsys):
+def test_infeasible_pricing_exits_3_without_an_energy(qs, tmp_path, capsys):
+    """An infeasible motion: exit status 3, one line on stderr with the reason and no
+    energy (a non-stop motion with no duration within the cap has E⁺ 0), the JSON written
+    saying why."""
     _, _, W, _ = qs
     path = write_csv(tmp_path / "path.csv", W.tolist())
-    status, stdout, err = energy_cli(capsys, "quickstart", path, "--execution", "stop",
-                                     "--max-duration", "0.5")
+    for execution, cap in (("stop", "0.5"), ("nonstop", "0.05"), ("auto", "0.05")):
+        status, stdout, err = energy_cli(capsys, "quickstart", path, "--execution", execution,
+                                         "--max-duration", cap)
+        assert status == 3, err
+        assert stdout == "" and err.count("\n") == 1, err
+        assert err.startswith(f"mpd-pin: quickstart {path}: infeasible: "), err
+        if execution != "auto":
+            assert f"infeasible: {execution}: " in err
+        assert "max_duration" in err and not re.search(r"\d J\b", err), err
+        doc = load(tmp_path / "path_energy.json")
+        assert doc["feasible"] is False and "max_duration" in doc["reason"]
+        assert doc["reason"] in err
+    assert "stop: takes" in err and "nonstop: " in err  # auto: why neither runs
+
+
+def test_nonstop_line_names_only_nonstop(qs, tmp_path, capsys):
+    """--execution nonstop with a cap the stop-and-go motion exceeds: the line gives the
+    non-stop energy only (no "(stop infeasible, …)")."""
+    scn, checker, W, _ = qs
+    drive = scn.drive()
+    free = trajectory_energy(drive, W, "nonstop", options=scn.options, checker=checker)
+    cap = (free.fastest + free.alternative.duration) / 2
+    ref = trajectory_energy(drive, W, "nonstop", options=scn.options, checker=checker,
+                            max_duration=cap)
+    assert ref.feasible and ref.energy_by_execution["stop"] is None
+    path = write_csv(tmp_path / "path.csv", W.tolist())
+    status, stdout, err = energy_cli(capsys, "quickstart", path, "--execution", "nonstop",
+                                     "--max-duration", repr(cap))
     assert status == 0, err
     doc = load(tmp_path / "path_energy.json")
-    assert doc["feasible"] is False and "max_duration" in doc["reason"]
-    assert doc["energy_by_execution"] == {"stop": None}
-    assert stdout.startswith(f"quickstart {path}: infeasible (") and "max_duration" in stdout
-    assert stdout.count("\n") == 1
+    assert doc["total_energy"] == pytest.approx(ref.total_energy, rel=1e-12)
+    e = doc["total_energy"]
+    out = tmp_path / "path_energy.json"
+    assert stdout == f"quickstart {path}: {e:.4g} J nonstop, {ref.duration:.2f} s, 0 stops " \
+                     f"-> {out}\n"
+    assert "stop infeasible" not in stdout and "(" not in stdout
 
 
-def test_scenario_max_duration_is_the_default(qs, tmp_path, capsys, monkeypatch):
-    """Without --max-duration the scenario's ``max_duration`` (s) applies, if it has one."""
-    scn, _, W, _ = qs
-
-    class WithLimit:
-        max_duration = 0.5
-
-        def __getattr__(self, name):
-            return getattr(scn, name)
-
-    monkeypatch.setattr("mpd_pin.app.kinds.load_scenario", lambda name: WithLimit())
+def test_scenario_max_duration_is_the_default(qs, tmp_path, capsys):
+    """Without --max-duration the scenario's ``[motion] max_duration`` (s) applies: a real
+    scenario file (quickstart with max_duration = 0.5 s) refuses the 2 s stop-and-go motion,
+    and --max-duration overrides it."""
+    _, _, W, _ = qs
+    text = builtin_scenarios()["quickstart"].read_text(encoding="utf-8")
+    toml = tmp_path / "capped.toml"
+    toml.write_text(text + "\n[motion]\nmax_duration = 0.5\n", encoding="utf-8")
+    assert load_scenario(str(toml)).motion.max_duration == 0.5
     path = write_csv(tmp_path / "path.csv", W.tolist())
-    feasible = {}
-    for extra in ([], ["--max-duration", "100"]):
-        status, _, err = energy_cli(capsys, "quickstart", path, "--execution", "stop", *extra)
-        assert status == 0, err
-        feasible[bool(extra)] = load(tmp_path / "path_energy.json")["feasible"]
-    assert feasible == {False: False, True: True}
+    status, _, err = energy_cli(capsys, toml, path, "--execution", "stop")
+    assert status == 3 and "takes" in err and "max_duration 0.5 s" in err, err
+    assert load(tmp_path / "path_energy.json")["feasible"] is False
+    status, _, err = energy_cli(capsys, toml, path, "--execution", "stop",
+                                "--max-duration", "100")
+    assert status == 0, err
+    assert load(tmp_path / "path_energy.json")["feasible"] is True
 
 
 def test_execution_choices_are_trajectory_energys():
     assert cli.EXECUTIONS == mp.motion.EXECUTIONS
+    parser = cli.build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command").choices["energy"]
+    choices = next(a for a in sub._actions if a.dest == "execution").choices
+    assert tuple(choices) == mp.motion.PRICINGS
+
+
+def test_out_equal_to_the_path_file_is_refused_before_any_work(qs, tmp_path, capsys,
+                                                                monkeypatch):
+    _, _, W, _ = qs
+    path = write_csv(tmp_path / "path.csv", W.tolist())
+    before = path.read_bytes()
+    (tmp_path / "link.csv").symlink_to(path)
+    os.link(path, tmp_path / "hard.csv")
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the scenario was loaded")
+
+    monkeypatch.setattr("mpd_pin.app.kinds.load_scenario", no_work)
+    for out in (path, tmp_path / "link.csv", tmp_path / "hard.csv",
+                tmp_path / "sub" / ".." / "path.csv"):
+        status, stdout, err = energy_cli(capsys, "quickstart", path, "--out", out)
+        assert status == 2 and stdout == "", err
+        assert err.startswith("mpd-pin: error: --out ") and "is the path file itself" in err
+        assert err.count("\n") == 1
+    assert path.read_bytes() == before
+
+
+# ----------------------------------------------------------------------------- timed
+def test_a_runs_own_trajectory_is_priced_at_its_own_times(tmp_path_factory, capsys):
+    """mpd-pin run quickstart, then mpd-pin energy on its trajectory.json (and .csv): by
+    default priced with their times, within 1 % of the run's total_energy (the files hold
+    the simulated positions, not the reference), over the run's duration."""
+    res, run_dir = run_once(tmp_path_factory, "quickstart", "--quiet", "--no-replay")
+    assert res.returncode == 0, res.stderr
+    result = read_result(run_dir)
+    work = tmp_path_factory.mktemp("priced")
+    for name in ("trajectory.json", "trajectory.csv"):
+        status, stdout, err = energy_cli(capsys, "quickstart", run_dir / name, "--out",
+                                         work / f"{name}.priced.json")
+        assert status == 0, err
+        doc = load(work / f"{name}.priced.json")
+        assert doc["execution"] == "timed" and doc["feasible"] is True
+        assert doc["total_energy"] == pytest.approx(result["total_energy"], rel=0.01)
+        assert doc["duration"] == pytest.approx(result["motion"]["duration"], rel=1e-9)
+        assert doc["stops"] == 0 and stdout.count("\n") == 1
+        assert f": {doc['total_energy']:.4g} J timed, " in stdout
+    # the positions without their times are priced another way (the motion's own timing)
+    pf = read_path_file(run_dir / "trajectory.json", result["joint_names"])
+    assert pf.times is not None and pf.times.size == pf.waypoints.shape[0]
+
+
+def test_node_times_give_the_nonstop_energy(qs, tmp_path, capsys):
+    """A CSV with a t column holding the non-stop motion's own node times is priced at the
+    non-stop motion's energy; with --execution nonstop the same file ignores its times."""
+    scn, checker, W, _ = qs
+    from mpd_pin.motion.series import motion_series
+
+    drive = scn.drive()
+    non = trajectory_energy(drive, W, "nonstop", options=scn.options, checker=checker)
+    t = motion_series(drive, non, scn.options.dt)["node_times"]
+    names = scn.arm.joint_names
+    path = write_csv(tmp_path / "timed.csv", [[t[k], *W[k]] for k in range(3)],
+                     header=["t", *names])
+    status, _, err = energy_cli(capsys, "quickstart", path)
+    assert status == 0, err
+    doc = load(tmp_path / "timed_energy.json")
+    assert doc["execution"] == "timed" and doc["energy_by_execution"] == {
+        "timed": doc["total_energy"]}
+    assert doc["total_energy"] == pytest.approx(non.total_energy, rel=1e-9)
+    np.testing.assert_allclose(doc["piece_durations"], np.diff(t), rtol=1e-15)
+    # slower times cost another energy; the same file priced non-stop ignores them
+    slow = write_csv(tmp_path / "slow.csv", [[2 * t[k], *W[k]] for k in range(3)],
+                     header=["t", *names])
+    status, _, err = energy_cli(capsys, "quickstart", slow)
+    assert status == 0, err
+    assert abs(load(tmp_path / "slow_energy.json")["total_energy"] / non.total_energy - 1) > 0.01
+    status, _, err = energy_cli(capsys, "quickstart", slow, "--execution", "nonstop")
+    assert status == 0, err
+    assert load(tmp_path / "slow_energy.json")["total_energy"] == pytest.approx(
+        non.total_energy, rel=1e-12)
+
+
+def test_ros_durations_are_times(qs, tmp_path, capsys):
+    """time_from_start as ROS 2 {sec, nanosec} and ROS 1 {secs, nsecs}: the same timed
+    energy as trajectory_energy at those times."""
+    scn, checker, W, _ = qs
+    names = scn.arm.joint_names
+    t = [0.0, 1.25, 2.5]
+    ref = trajectory_energy(scn.drive(), W, "timed", times=t, options=scn.options,
+                            checker=checker)
+    for sec, nsec in (("sec", "nanosec"), ("secs", "nsecs")):
+        traj = {"joint_names": names, "points": [
+            {"positions": list(W[k]), "time_from_start": {sec: int(t[k]),
+                                                          nsec: round(t[k] % 1 * 1e9)}}
+            for k in range(3)]}
+        path = tmp_path / f"{sec}.json"
+        path.write_text(json.dumps(traj))
+        status, _, err = energy_cli(capsys, "quickstart", path)
+        assert status == 0, err
+        doc = load(tmp_path / f"{sec}_energy.json")
+        assert doc["total_energy"] == pytest.approx(ref.total_energy, rel=1e-12)
+
+
+def _timed_bad(W, names):
+    """name → (file name, text, words the error line must contain) for timed pricing."""
+    def csv_text(times):
+        rows = [",".join(["t", *names])]
+        rows += [",".join([repr(x) if isinstance(x, float) else x, *map(repr, map(float, q))])
+                 for x, q in zip(times, W, strict=True)]
+        return "\n".join(rows) + "\n"
+
+    def json_text(times):
+        pts = [{"positions": list(W[k])} for k in range(len(W))]
+        for k, x in enumerate(times):
+            if x is not None:
+                pts[k]["time_from_start"] = x
+        return json.dumps({"joint_names": names, "points": pts})
+
+    return {
+        "not increasing": ("p.csv", csv_text([0.0, 1.0, 1.0]),
+                           ["p.csv: row 3 (line 4): time 1 s is not after the time of row 2 "
+                            "(line 3), 1 s"]),
+        "not from 0": ("p.csv", csv_text([0.5, 1.0, 2.0]),
+                       ["row 1 (line 2): the first time is 0.5 s", "starts at 0 s"]),
+        "nan time": ("p.csv", csv_text([0.0, "nan", 2.0]),
+                     ["row 2 (line 3)", "t = nan is not a finite number"]),
+        "empty time": ("p.csv", csv_text([0.0, "", 2.0]), ["row 2 (line 3)", "empty value for t"]),
+        "json partly timed": ("p.json", json_text([0.0, None, 2.0]),
+                              ["row 2 (points[1]) has no time_from_start", "row 1 has one"]),
+        "json bad duration": ("p.json", json_text([0.0, {"sec": 1}, 2.0]),
+                              ["row 2 (points[1])", "is not a time"]),
+        "json backwards": ("p.json", json_text([0.0, 2.0, 1.0]),
+                           ["row 3 (points[2]): time 1 s is not after", "increase strictly"]),
+        "no times": ("p.csv", "\n".join(",".join(map(repr, map(float, q))) for q in W),
+                     ["p.csv: the file has no times (no t column)", "timed"]),
+        "json no times": ("p.json", json_text([None, None, None]),
+                          ["p.json: the file has no times (no time_from_start"]),
+    }
+
+
+@pytest.mark.parametrize("case", ["not increasing", "not from 0", "nan time", "empty time",
+                                  "json partly timed", "json bad duration", "json backwards",
+                                  "no times", "json no times"])
+def test_bad_times_in_a_path_file(case, qs, tmp_path, capsys):
+    scn, _, W, _ = qs
+    name, text, words = _timed_bad(W, scn.arm.joint_names)[case]
+    path = tmp_path / name
+    path.write_text(text)
+    extra = ["--execution", "timed"] if case.endswith("no times") else []
+    status, stdout, err = energy_cli(capsys, "quickstart", path, *extra)
+    assert status == 2 and stdout == ""
+    assert err.startswith("mpd-pin: error: ") and err.count("\n") == 1, err
+    for w in words:
+        assert w in err, (w, err)
+    assert not list(tmp_path.glob("*_energy.json"))
 
 
 def test_limits_tolerance_and_continuous_joints():

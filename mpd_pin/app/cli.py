@@ -8,16 +8,21 @@
         [--evaluation lazy|eager]           (override [roadmap] evaluation)
         [--collision lazy|eager]            (override [roadmap] collision)
         [--nodes N] [--execution auto|stop|nonstop] [--no-refine] [--quiet] [--no-replay]
+        [--max-duration S]                  (override [motion] max_duration: the cycle time)
         [--cache FILE] [--scheduler ADDRESS|local[:N]]   roadmap file; Dask cluster (§4h)
     mpd-pin energy NAME|FILE PATHFILE       price a path planned elsewhere (CSV or JointTrajectory
-        [--execution auto|stop|nonstop]     JSON, :mod:`mpd_pin.app.pathfile`) with the
-        [--out FILE] [--max-duration S]     scenario's motors; writes <PATHFILE stem>_energy.json
+        [--execution timed|auto|stop|nonstop]  JSON, :mod:`mpd_pin.app.pathfile`) with the
+        [--out FILE] [--max-duration S]     scenario's motors (timed: its own times, the default
+                                            when it has them); writes <PATHFILE stem>_energy.json
 
 Scenario kinds are dispatched by :mod:`mpd_pin.app.kinds`; this module knows none of them.
 
 Bad input (unknown scenario, malformed TOML or URDF, unknown keys, start or goal
 in collision, no path) prints one line on stderr and exits with status 2 (or 3
-when no path exists); nothing is left half-written in DIR but what was done.
+when no path exists); nothing is left half-written in DIR but what was done. No motion
+within ``max_duration`` is a planning outcome: DIR gets the fastest motion found, its
+result.json says ``"feasible": false`` and why, and one line naming that motion's
+duration ends the command with status 3.
 Scenario numbers are range-checked when read (:mod:`mpd_pin.app.limits`), and the
 command runs with numpy's floating-point overflow, invalid-value and divide-by-zero
 warnings raised as errors (``np.errstate``; underflow is harmless and ignored; routines
@@ -36,7 +41,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ..errors import MpdPinError, NoPathError
+from ..errors import MpdPinError, NoMotionWithinDuration, NoPathError
 from .config import ConfigError
 
 __all__ = ["main"]
@@ -86,11 +91,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     its one line."""
     from .kinds import load_scenario, run_scenario, summary_line
 
+    max_duration = _max_duration(args.max_duration)  # refused before any work
     scn = load_scenario(args.scenario, seed=args.seed, planner=args.planner)
     flags = {"--evaluation": args.evaluation, "--collision": args.collision,
              "--scheduler": args.scheduler,
              "--execution": args.execution, "--no-refine": args.no_refine or None,
-             "--nodes": args.nodes}
+             "--nodes": args.nodes, "--max-duration": max_duration}
     given = [flag for flag, value in flags.items() if value is not None]
     if given:
         if getattr(scn, "kind", None) != "energy":
@@ -105,40 +111,84 @@ def cmd_run(args: argparse.Namespace) -> int:
             scn = configure(scn, evaluation=args.evaluation, collision=args.collision,
                             scheduler=args.scheduler,
                             execution=args.execution, refine=False if args.no_refine else None,
-                            num_nodes=args.nodes)
+                            num_nodes=args.nodes, max_duration=max_duration)
         except ConfigError as exc:
             raise ConfigError(f"--{exc}") from None
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} exists and is not a directory")
-    result = run_scenario(scn, out, show_progress=not args.quiet,
-                          cache=Path(args.cache) if args.cache else None,
-                          replay=not args.no_replay)
+    try:
+        result = run_scenario(scn, out, show_progress=not args.quiet,
+                              cache=Path(args.cache) if args.cache else None,
+                              replay=not args.no_replay)
+    except NoMotionWithinDuration as exc:  # main prints it (status 3); the files are written
+        if exc.result is not None:
+            exc.args = (f"{exc}; the fastest motion found is in {str(out / 'result.json')!r} "
+                        "(feasible: false)",)
+        raise
     print(summary_line(scn, result, out))
     return 0
 
 
-def _energy_line(name: str, pathfile: str, motion: Any, out: Path) -> str:
-    """The one line ``mpd-pin energy`` prints (energies J, duration s)."""
-    by = ", ".join(f"{k} {v:.4g} J" if v is not None else f"{k} infeasible"
-                   for k, v in motion.energy_by_execution.items())
-    n = int(motion.stops)
-    text = (f"{motion.total_energy:.4g} J {motion.execution} ({by}), {motion.duration:.2f} s, "
-            f"{n} stop{'' if n == 1 else 's'}")
+def _max_duration(text: str | None) -> float | None:
+    """``--max-duration`` as seconds (None: not given); ConfigError (one line naming the
+    option) unless a number in (0, 3600]."""
+    if text is None:
+        return None
+    from .limits import BOUNDS
+
+    bound = BOUNDS["max_duration"]
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (bound.lo < value <= bound.hi):  # NaN fails too
+        raise ConfigError(f"--max-duration: expected a number of seconds within "
+                          f"{bound.describe()} (the longest the motion may take), got "
+                          f"{text!r}")
+    return value
+
+
+def _energy_line(name: str, pathfile: str, motion: Any, out: Path, asked: str) -> str:
+    """The one line ``mpd-pin energy`` prints (energies J, duration s) for the execution
+    ``asked``: a feasible motion's energy (with both executions' energies under "auto"), or
+    "infeasible: <why>" — never an energy — when it is not. One line whatever the reasons."""
     if not motion.feasible:
-        text = f"infeasible ({motion.reason}): {text}"
+        ms = [motion] + ([motion.alternative] if asked == "auto" and motion.alternative
+                         is not None else [])
+        why = "; ".join(f"{m.execution}: {m.reason or 'infeasible'}" for m in ms)
+        text = f"infeasible: {why}"
+    else:
+        by = motion.energy_by_execution if asked == "auto" else {}
+        also = ", ".join(f"{k} {v:.4g} J" if v is not None else f"{k} infeasible"
+                         for k, v in by.items())
+        n = int(motion.stops)
+        text = (f"{motion.total_energy:.4g} J {motion.execution}"
+                f"{f' ({also})' if also else ''}, {motion.duration:.2f} s, "
+                f"{n} stop{'' if n == 1 else 's'}")
     return " ".join(f"{name} {pathfile}: {text} -> {out}".split())
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether the paths ``a`` and ``b`` name one file (symbolic or hard links included)."""
+    try:
+        return a.resolve() == b.resolve() or (a.exists() and b.exists() and a.samefile(b))
+    except OSError:
+        return False
 
 
 def cmd_energy(args: argparse.Namespace) -> int:
     """Price the waypoints of ``args.pathfile`` on the arm, motors and known obstacles of
-    ``args.scenario`` (:func:`mpd_pin.motion.trajectory_energy`) and write the JSON file."""
+    ``args.scenario`` (:func:`mpd_pin.motion.trajectory_energy`) and write the JSON file:
+    with the file's own times ("timed") by default when it has them, else "auto". Exit
+    status 0 for a feasible motion; 3 (the JSON still written, one line on stderr saying
+    why) when the motion is infeasible."""
     import math
 
     from ..collision import CollisionChecker
     from ..motion import trajectory_energy
     from .kinds import load_scenario
-    from .pathfile import check_path, read_path_file
+    from .pathfile import check_path, check_times, read_path_file
     from .results import write_json
 
     max_duration = args.max_duration
@@ -149,10 +199,11 @@ def cmd_energy(args: argparse.Namespace) -> int:
         out = Path(args.out)
     else:
         out = pathfile.with_name(f"{pathfile.stem}_energy.json")
+    if _same_file(out, pathfile):
+        raise ConfigError(f"--out {str(out)!r} is the path file itself (give another file "
+                          "name)")
     if out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a directory (give a file name)")
-    if out.exists() and pathfile.exists() and out.resolve() == pathfile.resolve():
-        raise ConfigError(f"--out {str(out)!r} is the path file itself")
     scn = load_scenario(args.scenario)
     kind = getattr(scn, "kind", "?")
     if kind != "energy":
@@ -160,12 +211,14 @@ def cmd_energy(args: argparse.Namespace) -> int:
                           f"{kind} scenario")
     names = list(scn.arm.joint_names)
     pf = read_path_file(pathfile, names)
+    execution = args.execution or ("timed" if pf.times is not None else "auto")
+    times = check_times(pf) if execution == "timed" else None
     checker = CollisionChecker(scn.arm, scn.world)  # the obstacles known at the start
     check_path(pf.waypoints, scn.arm, checker, rows=pf.rows, source=str(pathfile))
     if max_duration is None:
-        max_duration = getattr(scn, "max_duration", None)
-    motion = trajectory_energy(scn.drive(), pf.waypoints, args.execution, options=scn.options,
-                               checker=checker, max_duration=max_duration)
+        max_duration = scn.motion.max_duration  # [motion] max_duration (s) or None
+    motion = trajectory_energy(scn.drive(), pf.waypoints, execution, options=scn.options,
+                               checker=checker, max_duration=max_duration, times=times)
     doc = {"scenario": scn.name, "pathfile": str(pathfile), "joint_names": names,
            **motion.to_dict(), "supply": motion.supply.describe(),
            "energy_by_supply": motion.energy_by_supply()}
@@ -174,7 +227,11 @@ def cmd_energy(args: argparse.Namespace) -> int:
         write_json(out, doc)
     except OSError as exc:
         raise ConfigError(f"--out {str(out)!r}: cannot write: {exc.strerror or exc}") from None
-    print(_energy_line(scn.name, str(pathfile), motion, out))
+    line = _energy_line(scn.name, str(pathfile), motion, out, execution)
+    if not motion.feasible:
+        print(f"mpd-pin: {line}", file=sys.stderr)
+        return 3
+    print(line)
     return 0
 
 
@@ -231,6 +288,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--nodes", type=int, default=None, metavar="N",
                    help="override [roadmap] num_nodes: the roadmap's random samples (more "
                         "nodes: better paths, longer runs)")
+    p.add_argument("--max-duration", default=None, metavar="S", dest="max_duration",
+                   help="override [motion] max_duration: the longest the motion may take (s, "
+                        "the cycle time); none within it: result.json with feasible false, "
+                        "the fastest motion found, and exit status 3")
     p.add_argument("--no-replay", action="store_true", help="skip the meshcat replay.html")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_run)
@@ -238,16 +299,20 @@ def build_parser() -> argparse.ArgumentParser:
                        "energy stop-and-go or non-stop on a scenario's arm and motors",
                        description="Price the waypoints of PATHFILE on the arm, motors and "
                        "known obstacles of SCENARIO (an energy scenario). PATHFILE: .csv "
-                       "(a header row naming the joints, columns in any order, other columns "
-                       "ignored; or no header and one column per joint in joint order) or "
-                       ".json (trajectory_msgs/JointTrajectory: joint_names, "
-                       "points[].positions). Prints one line and writes a JSON file.")
+                       "(a header row naming the joints and optionally t (s), columns in any "
+                       "order, other columns ignored; or no header and one column per joint "
+                       "in joint order) or .json (trajectory_msgs/JointTrajectory: "
+                       "joint_names, points[].positions, optionally "
+                       "points[].time_from_start). Prints one line and writes a JSON file; "
+                       "exit status 3 when the motion is infeasible.")
     p.add_argument("scenario", help="built-in scenario name or path to a .toml file")
     p.add_argument("pathfile", help="waypoints: .csv or .json (rad, or m for prismatic joints)")
-    p.add_argument("--execution", choices=EXECUTIONS, default=EXECUTIONS[0],
-                   help="stop: rest at every waypoint (roadmap-timed edges); nonstop: one "
-                        "spline through them, duration chosen for least energy; auto: the "
-                        "cheaper feasible one (default)")
+    p.add_argument("--execution", choices=(*EXECUTIONS, "timed"), default=None,
+                   help="timed: the file's own times (a CSV t column, JSON time_from_start; "
+                        "the default when it has them); stop: rest at every waypoint "
+                        "(roadmap-timed edges); nonstop: one spline through them, duration "
+                        "chosen for least energy; auto: the cheaper feasible one (the "
+                        "default without times)")
     p.add_argument("--out", default=None, metavar="FILE",
                    help="JSON file to write (default: <PATHFILE stem>_energy.json beside it)")
     p.add_argument("--max-duration", type=float, default=None, metavar="S",
@@ -268,6 +333,9 @@ def main(argv: list[str] | None = None) -> int:
             return int(args.func(args))
     except NoPathError as exc:
         print(f"mpd-pin: no path: {exc}", file=sys.stderr)
+        return 3
+    except NoMotionWithinDuration as exc:  # a planning outcome; result.json says why
+        print(f"mpd-pin: {' '.join(str(exc).split())}", file=sys.stderr)
         return 3
     except (ConfigError, ValueError, MpdPinError) as exc:
         msg = " ".join(str(exc).split())  # exactly one line

@@ -16,17 +16,26 @@ After the plan (:mod:`mpd_pin.app.plan`) and the shortest-path comparison,
 
 With hazards of positive clearance, every new segment and curve is certified against
 the clearance bands too.
+
+With ``[motion] max_duration`` (or a query's ``max_duration``) and no candidate within it,
+the run still has an answer, a planning outcome rather than bad input: the fastest motion
+found (the candidate whose execution allows the least duration, priced again at that
+duration, without the cap), flagged infeasible (``RunMotion.failure`` says why; the
+planner raises :class:`~mpd_pin.errors.NoMotionWithinDuration` with its plan).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import math
+import time
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..dynamics.supply import supply_power
-from ..motion.energy import MotionEnergy, check_waypoints
+from ..motion.energy import MotionEnergy, check_waypoints, trajectory_energy
 from ..motion.refine import NoFeasibleMotion, RefinedMotion, refine_candidates
 from ..motion.series import motion_series
 from .config import ConfigError
@@ -34,7 +43,8 @@ from .plan import PlanResult, Setup, path_length
 from .scenario import EnergyScenario
 from .verify import Verification
 
-__all__ = ["RunMotion", "make_motion", "roadmap_motion"]
+__all__ = ["RunMotion", "make_motion", "roadmap_motion", "fastest_duration",
+           "no_motion_message"]
 
 OPTIMUM, SHORTEST = "energy optimum", "shortest path"
 
@@ -43,13 +53,24 @@ OPTIMUM, SHORTEST = "energy optimum", "shortest path"
 class RunMotion:
     """The returned motion, its time series (:func:`~mpd_pin.motion.series.motion_series`),
     the refinement (None when the roadmap path is returned as it is), the shortest path
-    refined the same way (None likewise) and a note on how it was made."""
+    refined the same way (None likewise) and a note on how it was made; ``fastest`` (s):
+    the least duration any feasible candidate's execution allows (all candidates' when none
+    is feasible; None: the motion's own duration); ``failure``: empty when the motion is
+    the answer, else why there is none within ``max_duration`` (one line, the motion then
+    being the fastest one found, infeasible)."""
 
     energy: MotionEnergy
     series: dict[str, np.ndarray]
     refined: RefinedMotion | None
     shortest: MotionEnergy | None
     note: str
+    fastest: float | None = None
+    failure: str = ""
+
+    @property
+    def fastest_duration(self) -> float:
+        """``fastest`` (s), or the motion's own duration when no candidate gave one."""
+        return float(self.energy.duration if self.fastest is None else self.fastest)
 
     def check(self) -> Verification:
         """The motion as a :class:`~mpd_pin.app.verify.Verification` (for files and plots):
@@ -77,6 +98,7 @@ class RunMotion:
             "trajectory_relative_difference": (
                 abs(drawn - total) / abs(total) if total != 0 else 0.0),
             "note": self.note,
+            "fastest_duration": self.fastest_duration,
         }
         if self.refined is not None:
             out["refinement"] = self.refined.record()
@@ -121,10 +143,115 @@ def _checker(scn: EnergyScenario, setup: Setup):
     return setup.checker
 
 
+def fastest_duration(motions: dict[str, MotionEnergy]) -> float | None:
+    """The least duration (s, ``MotionEnergy.fastest``) the executions of ``motions`` allow
+    (each one and its ``.alternative``): over the feasible ones, or over all when none is;
+    None when there are none."""
+    pool = [m for m0 in motions.values() for m in (m0, m0.alternative)
+            if m is not None and m.fastest > 0 and math.isfinite(m.fastest)]
+    good = [m.fastest for m in pool if m.feasible]
+    if good or pool:
+        return float(min(good or [m.fastest for m in pool]))
+    return None
+
+
+def no_motion_message(max_duration: float, motion: MotionEnergy) -> str:
+    """The one line of a run with no motion within ``max_duration`` (s); ``motion``: the
+    fastest one found (priced at its fastest duration)."""
+    if motion.duration > max_duration + 1e-9:
+        return (f"no motion within max_duration {max_duration:g} s: the fastest motion found "
+                f"takes {motion.duration:.3f} s")
+    return (f"no feasible motion within max_duration {max_duration:g} s: the fastest motion "
+            f"found, {motion.duration:.3f} s, is infeasible ({motion.reason})")
+
+
+def _over(motion: MotionEnergy, max_duration: float) -> MotionEnergy:
+    """``motion`` flagged infeasible, its reason saying it takes longer than
+    ``max_duration`` (s) when it does."""
+    over = (f"takes {motion.duration:.3f} s > max_duration {max_duration:g} s"
+            if motion.duration > max_duration + 1e-9 else "")
+    reason = "; ".join(filter(None, [over, "" if motion.feasible else motion.reason]))
+    return dataclasses.replace(motion, feasible=False, reason=reason or motion.reason)
+
+
+#: The fastest feasible duration of a non-stop candidate is found by bisection on the cap
+#: down to this share of it (or two RK4 steps, whichever is more).
+FASTEST_TOLERANCE = 0.005
+
+
+def _fastest_feasible(drive, W: np.ndarray, execution: str, options, checker,
+                      lower: float) -> MotionEnergy | None:
+    """The fastest feasible motion through ``W`` under ``execution`` ("stop": its roadmap
+    timing, the one duration it has; "nonstop": bisection on ``max_duration`` between
+    ``lower`` (s, the velocity limits' bound) and the least-energy duration without a cap,
+    to :data:`FASTEST_TOLERANCE`), or None when it has none (effort limits, collision)."""
+    free = trajectory_energy(drive, W, execution, options=options, checker=checker)
+    if not free.feasible:
+        return None
+    if execution == "stop":
+        return free
+    best, lo, hi = free, float(lower), float(free.duration)
+    tol = max(FASTEST_TOLERANCE * lo, 2 * float(options.dt))
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        m = trajectory_energy(drive, W, execution, options=options, checker=checker,
+                              max_duration=mid)
+        if m.feasible:
+            best, hi = m, min(mid, float(m.duration))
+        else:
+            lo = mid
+    return best
+
+
+def _fastest_found(scn: EnergyScenario, drive, checker, exc: NoFeasibleMotion,
+                   refined_note: str, started: tuple[float, float]) -> RunMotion:
+    """No candidate within ``[motion] max_duration``: the fastest feasible motion found
+    without the cap (over the candidates and both executions, :func:`_fastest_feasible`),
+    as an infeasible :class:`RunMotion` whose ``failure`` names its duration. When no
+    candidate is feasible even without the cap, the one the velocity limits allow the
+    least duration, priced at that duration (infeasible, its reason saying why)."""
+    opts = scn.motion
+    cap = float(opts.max_duration)
+    pool = [(name, m) for name, m0 in exc.motions.items() for m in (m0, m0.alternative)
+            if m is not None and m.fastest > 0 and math.isfinite(m.fastest)]
+    if not pool:  # nothing was priced: every candidate failed its own refinement
+        raise ConfigError(f"motion.max_duration: {cap:g} s: {exc}") from None
+    pool.sort(key=lambda item: item[1].fastest)  # stable: ties keep the preferred candidate
+    found: tuple[str, MotionEnergy] | None = None
+    for name, m in pool:
+        if found is not None and m.fastest >= found[1].duration:
+            break  # it cannot be faster than the one found
+        execution = m.execution if m.execution in ("stop", "nonstop") else "nonstop"
+        fast = _fastest_feasible(drive, m.waypoints, execution, scn.options, checker,
+                                 m.fastest)
+        if fast is not None and (found is None or fast.duration < found[1].duration):
+            found = (name, fast)
+    if found is None:  # infeasible even without the cap: the velocity limits' fastest
+        name, m = pool[0]
+        execution = m.execution if m.execution in ("stop", "nonstop") else "nonstop"
+        found = (name, trajectory_energy(drive, m.waypoints, execution, options=scn.options,
+                                         checker=checker, max_duration=float(m.fastest)))
+    name, fast = found
+    refined = RefinedMotion(fast, name, exc.candidates, time.perf_counter() - started[0],
+                            time.process_time() - started[1], dict(exc.motions))
+    series = motion_series(drive, fast, scn.options.dt)
+    if fast.feasible and fast.duration <= cap + 1e-9:  # found within the cap after all
+        note = (f"the fastest motion found ({fast.execution}, from the {name}; "
+                f"{refined_note})")
+        return RunMotion(fast, series, refined, None, note, fastest=float(fast.duration))
+    motion = _over(fast, cap)
+    refined.motion = motion
+    note = (f"no motion within max_duration {cap:g} s: the fastest one found "
+            f"({fast.execution}, from the {name}; {refined_note}), without the cap")
+    return RunMotion(motion, series, refined, None, note, fastest=float(motion.duration),
+                     failure=no_motion_message(cap, motion))
+
+
 def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Verification,
                 shortest: PlanResult | None, *, show_progress: bool = False) -> RunMotion:
     """The returned motion of a run (module docstring); ``show_progress``: a bar over the
-    candidates on stderr."""
+    candidates on stderr. With no candidate within ``[motion] max_duration`` the
+    :class:`RunMotion` is the fastest one found, infeasible, ``failure`` saying why."""
     opts = scn.motion
     drive, roadmap = setup.drive, setup.roadmap
     if plan.execution is not None or (not opts.refine and opts.execution == "stop") or len(
@@ -133,8 +260,13 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
         if plan.execution is not None and (opts.refine or opts.execution != "stop"):
             note += (" (obstacles sensed on the way: the arm is at rest at each node where it "
                      "may repair, so the travelled path is neither shortcut nor run non-stop)")
-        return RunMotion(roadmap_motion(drive, setup, plan, check), check.series, None, None,
-                         note)
+        energy = roadmap_motion(drive, setup, plan, check)
+        failure = ""  # its one execution, timed by the roadmap: its duration is its fastest
+        if opts.max_duration is not None and energy.duration > opts.max_duration + 1e-9:
+            energy = _over(energy, float(opts.max_duration))
+            failure = no_motion_message(float(opts.max_duration), energy)
+        return RunMotion(energy, check.series, None, None, note, fastest=energy.duration,
+                         failure=failure)
     checker = _checker(scn, setup)
     cands = {OPTIMUM: roadmap.nodes[plan.path]}
     if opts.refine and shortest is not None and list(shortest.path) != list(plan.path):
@@ -145,17 +277,17 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
                                                         drive.arm)):
             cands[f"alternative {k + 1}"] = roadmap.nodes[path]
     detours = frozenset(n for n in cands if n.startswith("alternative"))
+    how = "shortcut where the energy drops, " if opts.refine else ""
+    many = f"{len(cands)} candidate{'s' if len(cands) > 1 else ''}"
+    w0, c0 = time.perf_counter(), time.process_time()
     try:
         refined = refine_candidates(drive, checker, scn.options, cands, opts, optional=detours,
                                     progress=show_progress)
     except NoFeasibleMotion as exc:
         if opts.max_duration is None:
             raise
-        if exc.fastest > opts.max_duration:
-            raise ConfigError(
-                f"motion.max_duration: {opts.max_duration:g} s is shorter than the fastest "
-                f"motion the velocity limits allow, {exc.fastest:.3f} s") from None
-        raise ConfigError(f"motion.max_duration: {opts.max_duration:g} s: {exc}") from None
+        return _fastest_found(scn, drive, checker, exc, f"{how}{opts.execution} execution, "
+                              f"{many}", (w0, c0))
     short_motion = None
     if shortest is not None:
         short_motion = refined.by_name.get(SHORTEST)
@@ -163,15 +295,22 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
             if list(shortest.path) == list(plan.path):
                 short_motion = refined.by_name[OPTIMUM]
             else:
-                short_motion = refine_candidates(
-                    drive, checker, scn.options, {SHORTEST: roadmap.nodes[shortest.path]}, opts,
-                    progress=show_progress,
-                ).motion
-    how = "shortcut where the energy drops, " if opts.refine else ""
-    note = (f"{how}{opts.execution} execution; from the {refined.candidate} "
-            f"({len(cands)} candidate{'s' if len(cands) > 1 else ''})")
+                try:
+                    short_motion = refine_candidates(
+                        drive, checker, scn.options, {SHORTEST: roadmap.nodes[shortest.path]},
+                        opts, progress=show_progress,
+                    ).motion
+                except NoFeasibleMotion:
+                    if opts.max_duration is None:
+                        raise
+                    short_motion = None  # none within the cap: nothing to compare with
+        if opts.max_duration is not None and short_motion is not None and (
+                not short_motion.feasible):
+            short_motion = None  # none within the cap: nothing to compare with
+    note = f"{how}{opts.execution} execution; from the {refined.candidate} ({many})"
     series = motion_series(drive, refined.motion, scn.options.dt)
-    return RunMotion(refined.motion, series, refined, short_motion, note)
+    return RunMotion(refined.motion, series, refined, short_motion, note,
+                     fastest=fastest_duration(refined.by_name))
 
 
 def alternative_paths(roadmap, taken: list[list[int]], count: int, arm,

@@ -37,6 +37,9 @@ where every non-finite number is ``null``) holds:
   ``energy_saved_percent`` = 100·(1 − E_opt/E_shortest) (roadmap energies; ``null`` when
   E_shortest = 0), ``energy_saved_percent_simulate_edge``; with hidden obstacles also
   ``before_obstacle`` (the two initial plans, roadmap energies);
+* ``feasible`` — whether the returned motion is the answer: false when no motion runs
+  within ``max_duration`` (docs/design.md §9f), ``motion`` then being the fastest one
+  found and ``reason`` saying why;
 * ``verification`` (``Verification.to_dict``); ``replay`` (when written);
 * ``seconds_per_phase`` — wall-clock seconds per phase, the roadmap's sub-phases as
   ``roadmap_<name>`` and ``roadmap_total``; ``cpu_seconds_per_phase`` and
@@ -431,6 +434,9 @@ def result_record(
     record["supply"] = setup.drive.supply.describe()
     record["energy_by_supply"] = energy_by_supply(
         check.energy_per_joint, check.bus_energy, setup.drive.supply.regeneration)
+    record["feasible"] = motion is None or not motion.failure
+    if motion is not None and motion.failure:
+        record["reason"] = motion.failure  # the fastest motion found is over max_duration
     if motion is not None:
         record["roadmap_path"] = roadmap_path_record(setup, plan, scn.arm)
         record["motion"] = motion.record()

@@ -11,22 +11,28 @@ rad (revolute and continuous joints) or m (prismatic joints), one waypoint per r
 
   - a **header row** naming the columns: each of the arm's joints must have a column,
     named after the joint (``joint1``) or ``q_<joint>`` as in mpd_pin's own
-    ``trajectory.csv``; the columns may come in any order and other columns (``t``,
-    ``time``, velocities, …) are ignored; every row has as many fields as the header;
+    ``trajectory.csv``; the columns may come in any order; a column ``t`` holds the time
+    of each row (s, as in ``trajectory.csv``); other columns (``time``, velocities, …) are
+    ignored; every row has as many fields as the header;
   - or **no header** (the first row is all numbers): exactly one column per joint, in the
     arm's joint order (``Arm.joint_names``, the ``joint_names`` of mpd_pin's result.json).
 
 * ``.json`` — an object shaped like ROS ``trajectory_msgs/JointTrajectory``:
   ``{"joint_names": [...], "points": [{"positions": [...]}, ...]}``; positions are
   reordered by ``joint_names``, joints the arm does not have (a gripper) are ignored,
-  other point fields (``velocities``, ``time_from_start``, …) too. mpd_pin's own
+  other point fields (``velocities``, ``effort``, …) too. ``time_from_start`` (s), on every
+  point or on none, is the point's time: a number (mpd_pin's own files) or a ROS
+  ``Duration`` object, ``{"sec": int, "nanosec": int}`` (ROS 2) or ``{"secs": int,
+  "nsecs": int}`` (ROS 1). mpd_pin's own
   ``trajectory.json`` has this shape; so does ``joint_trajectory`` of a
   ``moveit_msgs/RobotTrajectory``, which is accepted as well (an object whose
   ``joint_trajectory`` holds the above).
 
-Only positions are read: times, velocities and efforts in the file are ignored, as
-:func:`~mpd_pin.motion.trajectory_energy` times the motion itself (roadmap timing stop
-and go, or the least-energy duration non-stop).
+Positions are read, and the times when the file has them (:attr:`PathFile.times`, None
+otherwise): ``mpd-pin energy`` then prices the trajectory with its own timing
+(``trajectory_energy(..., execution="timed", times=...)``); the other executions time the
+motion themselves (roadmap timing stop and go, or the least-energy duration non-stop).
+Velocities and efforts in the file are ignored.
 
 Rows are counted from 1 over the data rows (the header and blank lines not counted);
 for CSV the error messages add the line number, for JSON the index into ``points``.
@@ -36,7 +42,9 @@ Checks
 :func:`read_path_file` rejects, with a :class:`~mpd_pin.app.config.ConfigError` naming
 the file and the row: an unreadable file, malformed JSON or an unknown extension (the
 message lists the accepted formats), a missing joint column, a row with the wrong number
-of values, an empty, non-numeric or non-finite value, and fewer than two waypoints.
+of values, an empty, non-numeric or non-finite value (a time too), a JSON file with
+``time_from_start`` on some points only, and fewer than two waypoints. :func:`check_times`
+rejects times that do not start at 0 or do not increase strictly (for timed pricing only).
 :func:`check_path` then rejects a waypoint outside the joint position limits (1e-9
 tolerance; continuous joints have none) or in collision (naming the colliding pair).
 Files are only parsed (``csv``, ``json``), never executed or unpickled.
@@ -56,14 +64,15 @@ import numpy as np
 
 from .config import ConfigError
 
-__all__ = ["FORMATS", "LIMIT_TOLERANCE", "PathFile", "check_path", "read_path_file",
-           "read_waypoints"]
+__all__ = ["FORMATS", "LIMIT_TOLERANCE", "PathFile", "check_path", "check_times",
+           "read_path_file", "read_waypoints"]
 
 #: Extension → what it holds (for the message on an unknown extension).
 FORMATS = {
-    ".csv": "waypoints, one per row, with a header row naming the joints or exactly one "
-            "column per joint in joint order",
-    ".json": "trajectory_msgs/JointTrajectory: joint_names and points[].positions",
+    ".csv": "waypoints, one per row, with a header row naming the joints (and t, s) or "
+            "exactly one column per joint in joint order",
+    ".json": "trajectory_msgs/JointTrajectory: joint_names and points[].positions (and "
+             "points[].time_from_start)",
 }
 
 #: How far a waypoint may lie outside a joint's position limits (rad or m).
@@ -73,12 +82,14 @@ LIMIT_TOLERANCE = 1e-9
 @dataclass(frozen=True)
 class PathFile:
     """A waypoint file as read: ``waypoints`` (m, nq) in the arm's joint order (rad or m),
-    ``rows[k]`` how messages name waypoint k ("row 3 (line 4)")."""
+    ``rows[k]`` how messages name waypoint k ("row 3 (line 4)"), ``times`` (m,) s when the
+    file gives them (a CSV ``t`` column, JSON ``time_from_start``), else None."""
 
     path: Path
     format: str
     waypoints: np.ndarray
     rows: list[str]
+    times: np.ndarray | None = None
 
 
 def read_waypoints(path: str | Path, joint_names: Sequence[str]) -> np.ndarray:
@@ -100,16 +111,16 @@ def read_path_file(path: str | Path, joint_names: Sequence[str]) -> PathFile:
     try:
         with open(path, encoding="utf-8-sig", newline="") as f:
             if fmt == ".csv":
-                W, rows = _read_csv(f, path, joint_names)
+                W, rows, times = _read_csv(f, path, joint_names)
             else:
-                W, rows = _read_json(f, path, joint_names)
+                W, rows, times = _read_json(f, path, joint_names)
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     if W.shape[0] < 2:
         raise ConfigError(f"{path}: {W.shape[0]} waypoint(s); a path needs at least 2")
-    return PathFile(path, fmt[1:], W, rows)
+    return PathFile(path, fmt[1:], W, rows, times)
 
 
 def _number(text: str) -> float | None:
@@ -137,7 +148,8 @@ def _value(x: Any, where: str, joint: str) -> float:
     return v
 
 
-def _read_csv(f, path: Path, joint_names: list[str]) -> tuple[np.ndarray, list[str]]:
+def _read_csv(f, path: Path, joint_names: list[str]
+              ) -> tuple[np.ndarray, list[str], np.ndarray | None]:
     reader = csv.reader(f)
     lines: list[tuple[int, list[str]]] = []
     try:
@@ -150,6 +162,7 @@ def _read_csv(f, path: Path, joint_names: list[str]) -> tuple[np.ndarray, list[s
         raise ConfigError(f"{path}: no waypoints (the file is empty)")
     nq = len(joint_names)
     first = lines[0][1]
+    time_column = None
     if all(_number(c) is not None for c in first):  # no header: joint order
         columns = list(range(nq))
         width = nq
@@ -176,10 +189,15 @@ def _read_csv(f, path: Path, joint_names: list[str]) -> tuple[np.ndarray, list[s
                 raise ConfigError(f"{path}: no column for joint {name!r} in the header "
                                   f"({', '.join(header)}); one per joint is needed: "
                                   f"{', '.join(joint_names)}{hint}")
+        hits = [k for k, h in enumerate(header) if h == "t"]
+        if len(hits) > 1:
+            raise ConfigError(f"{path}: the header names column 't' {len(hits)} times")
+        time_column = hits[0] if hits else None
         width = len(header)
         expect = f"the header has {width} columns"
         lines = lines[1:]
     W = np.empty((len(lines), nq))
+    times = None if time_column is None else np.empty(len(lines))
     rows = []
     for r, (line, cells) in enumerate(lines):
         where = f"{path}: row {r + 1} (line {line})"
@@ -187,11 +205,27 @@ def _read_csv(f, path: Path, joint_names: list[str]) -> tuple[np.ndarray, list[s
             raise ConfigError(f"{where} has {len(cells)} values, {expect}")
         W[r] = [_value(cells[c], where, name) for c, name in zip(columns, joint_names,
                                                                   strict=True)]
+        if times is not None:
+            times[r] = _value(cells[time_column], where, "t")
         rows.append(f"row {r + 1} (line {line})")
-    return W, rows
+    return W, rows, times
 
 
-def _read_json(f, path: Path, joint_names: list[str]) -> tuple[np.ndarray, list[str]]:
+def _time_from_start(x: Any, where: str) -> float:
+    """A point's ``time_from_start`` (s): a number, or a ROS Duration object."""
+    for sec, nsec in (("sec", "nanosec"), ("secs", "nsecs")):
+        if isinstance(x, dict) and set(x) == {sec, nsec}:
+            parts = [x[sec], x[nsec]]
+            if all(isinstance(v, int) and not isinstance(v, bool) for v in parts):
+                return float(parts[0]) + float(parts[1]) * 1e-9
+    if isinstance(x, dict):
+        raise ConfigError(f'{where}: time_from_start = {json.dumps(x)} is not a time (a '
+                          'number of s, or {"sec": int, "nanosec": int})')
+    return _value(x, where, "time_from_start")
+
+
+def _read_json(f, path: Path, joint_names: list[str]
+               ) -> tuple[np.ndarray, list[str], np.ndarray | None]:
     try:
         doc = json.load(f)
     except json.JSONDecodeError as exc:
@@ -218,6 +252,8 @@ def _read_json(f, path: Path, joint_names: list[str]) -> tuple[np.ndarray, list[
                           f"{missing[0]!r}; the arm's joints are {', '.join(joint_names)}")
     columns = [names.index(n) for n in joint_names]
     W = np.empty((len(points), len(joint_names)))
+    timed = [isinstance(p, dict) and "time_from_start" in p for p in points]
+    times = np.empty(len(points)) if any(timed) else None
     rows = []
     for r, point in enumerate(points):
         label = f"row {r + 1} (points[{r}])"
@@ -230,8 +266,35 @@ def _read_json(f, path: Path, joint_names: list[str]) -> tuple[np.ndarray, list[
                               f"{len(names)}")
         W[r] = [_value(pos[c], where, name) for c, name in zip(columns, joint_names,
                                                                strict=True)]
+        if times is not None:
+            if not timed[r]:
+                first = timed.index(True)
+                raise ConfigError(f"{where} has no time_from_start (row {first + 1} has one: "
+                                  "give it on every point or on none)")
+            times[r] = _time_from_start(point["time_from_start"], where)
         rows.append(label)
-    return W, rows
+    return W, rows, times
+
+
+def check_times(pf: PathFile) -> np.ndarray:
+    """The times (s) of the path file ``pf`` for timed pricing: ConfigError naming the file
+    (and the row) when it has none, when the first is not 0 or when they do not increase
+    strictly."""
+    if pf.times is None:
+        what = "no t column" if pf.format == "csv" else "no time_from_start on its points"
+        raise ConfigError(f"{pf.path}: the file has no times ({what}); timed pricing needs "
+                          "them (or choose --execution auto, stop or nonstop)")
+    t = pf.times
+    if t[0] != 0.0:
+        raise ConfigError(f"{pf.path}: {pf.rows[0]}: the first time is {t[0]:.9g} s; a timed "
+                          "trajectory starts at 0 s")
+    back = np.flatnonzero(np.diff(t) <= 0.0)
+    if back.size:
+        k = int(back[0]) + 1
+        raise ConfigError(f"{pf.path}: {pf.rows[k]}: time {t[k]:.9g} s is not after the "
+                          f"time of {pf.rows[k - 1]}, {t[k - 1]:.9g} s: times must increase "
+                          "strictly")
+    return t
 
 
 def check_path(W: np.ndarray, arm: Any, checker: Any = None, *, rows: Sequence[str] | None

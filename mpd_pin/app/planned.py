@@ -106,7 +106,10 @@ class Plan:
     :class:`RoadmapPath` behind it; ``comparison``: result.json's ``comparison`` (the
     shortest joint-space path planned and refined the same way); ``series``: the motion's
     time series (``t``, ``q``, ``v``, ``i``, ``V``, ``energy_t``, …), sampled every
-    ``dt``.
+    ``dt``; ``fastest_duration`` (s): the least duration any feasible candidate's execution
+    allows (result.json ``motion.fastest_duration``); ``feasible``: False for the plan of a
+    :class:`~mpd_pin.NoMotionWithinDuration` (the fastest motion found, over
+    ``max_duration``), ``reason`` then saying why.
     """
 
     def __init__(self, parts: _Parts) -> None:
@@ -117,6 +120,9 @@ class Plan:
         self.total_energy = float(self.motion.total_energy)
         self.energy_per_joint = np.asarray(self.motion.energy_per_joint, dtype=float)
         self.path = np.asarray(self.motion.waypoints, dtype=float)
+        self.fastest_duration = p.motion.fastest_duration
+        self.feasible = not p.motion.failure
+        self.reason = p.motion.failure
         roadmap = p.setup.roadmap
         self.roadmap_path = RoadmapPath(
             nodes=[int(n) for n in p.result.path],

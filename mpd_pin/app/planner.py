@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..dynamics.motor import Drive
+from ..errors import NoMotionWithinDuration
 from ..motion.refine import MotionOptions
 from ..planning.roadmap import COLLISIONS, RoadmapOptions, npz_path
 from ..search.registry import DEFAULT_PLANNER, PLANNERS
@@ -39,18 +40,38 @@ from .timing import PhaseClock
 from .trajectory import DEFAULT_TRAJECTORY_RATE
 from .verify import verify_path
 
-__all__ = ["EnergyPlanner", "plan", "configure"]
+__all__ = ["EnergyPlanner", "plan", "configure", "check_max_duration"]
+
+
+def check_max_duration(value: Any, name: str = "max_duration") -> float:
+    """``value`` as the longest a motion may take (s): a real number in (0, 3600]
+    (``BOUNDS["max_duration"]``, the range ``[motion] max_duration`` has in a scenario
+    file), else ConfigError naming ``name``."""
+    from .limits import BOUNDS
+
+    bound = BOUNDS["max_duration"]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer,
+                                                                        np.floating)):
+        raise ConfigError(f"{name}: expected a number of seconds within {bound.describe()} "
+                          f"(the longest the motion may take), got {value!r}")
+    value = float(value)
+    if not (math.isfinite(value) and bound.lo < value <= bound.hi):
+        raise ConfigError(f"{name}: expected a number of seconds within {bound.describe()} "
+                          f"(the longest the motion may take), got {value:g}")
+    return value
 
 
 def configure(scn: EnergyScenario, *, seed: int | None = None, planner: str | None = None,
               evaluation: str | None = None, execution: str | None = None,
               refine: bool | None = None, scheduler: Any = None,
-              num_nodes: int | None = None, collision: str | None = None) -> EnergyScenario:
+              num_nodes: int | None = None, collision: str | None = None,
+              max_duration: float | None = None) -> EnergyScenario:
     """``scn`` with some settings replaced (None: keep the scenario's): ``[roadmap] seed``,
     ``num_nodes``, ``evaluation`` and ``collision`` ("lazy"/"eager"), ``[planner] algorithm``,
-    ``[motion] execution`` ("auto"/"stop"/"nonstop") and ``refine``, ``[compute]
-    scheduler`` ("threads", "local[:N]", an address, or a Dask client). ConfigError (one
-    line naming the setting) for a bad value."""
+    ``[motion] execution`` ("auto"/"stop"/"nonstop"), ``refine`` and ``max_duration`` (s,
+    the longest the motion may take), ``[compute] scheduler`` ("threads", "local[:N]", an
+    address, or a Dask client). ConfigError (one line naming the setting) for a bad
+    value."""
     from ..motion.energy import EXECUTIONS
     from .scenario import LIMITS
 
@@ -77,10 +98,14 @@ def configure(scn: EnergyScenario, *, seed: int | None = None, planner: str | No
         raise ConfigError(f"collision: {collision!r} is not one of {list(COLLISIONS)}")
     if execution is not None and execution not in EXECUTIONS:
         raise ConfigError(f"execution: {execution!r} is not one of {list(EXECUTIONS)}")
+    if max_duration is not None:
+        max_duration = check_max_duration(max_duration)
     motion = scn.motion
-    if execution is not None or refine is not None:
+    if execution is not None or refine is not None or max_duration is not None:
         motion = replace(motion, execution=execution or motion.execution,
-                         refine=motion.refine if refine is None else bool(refine))
+                         refine=motion.refine if refine is None else bool(refine),
+                         max_duration=motion.max_duration if max_duration is None
+                         else max_duration)
     if isinstance(scheduler, str):
         from ..dynamics.remote import ComputeError, parse_scheduler
 
@@ -156,6 +181,7 @@ class EnergyPlanner:
             start=np.zeros(drive.arm.nq), goal=np.zeros(drive.arm.nq),
             sensor_range=sensor_range, hazard_penalty=float(hazard_penalty),
             motion=motion if motion is not None else MotionOptions(), source="python",
+            supply=drive.supply,
         )
         self._init(configure(scn, planner=planner, evaluation=evaluation, scheduler=scheduler,
                              collision=collision),
@@ -216,14 +242,21 @@ class EnergyPlanner:
         return None if self._setup is None else self._setup.roadmap
 
     # ------------------------------------------------------------------ queries
-    def plan(self, start: Any, goal: Any) -> Plan:
+    def plan(self, start: Any, goal: Any, *, max_duration: float | None = None) -> Plan:
         """The minimum-energy motion from ``start`` to ``goal`` (rad, one value per joint):
-        a :class:`~mpd_pin.app.planned.Plan`. ValueError for a configuration outside the
-        limits or in collision; :class:`~mpd_pin.NoPathError` when the roadmap joins
-        none."""
+        a :class:`~mpd_pin.app.planned.Plan`. ``max_duration`` (s): the longest the motion
+        may take, for this query (None: the planner's ``MotionOptions.max_duration``).
+        ValueError for a configuration outside the limits or in collision, ConfigError for a
+        bad ``max_duration``; :class:`~mpd_pin.NoPathError` when the roadmap joins none;
+        :class:`~mpd_pin.NoMotionWithinDuration` when no motion runs within
+        ``max_duration`` (its ``.plan`` holds the fastest one found, ``.fastest`` its
+        duration)."""
         from ..dynamics.sizing import check_holding
 
         base = self.scenario
+        if max_duration is not None:
+            base = replace(base, motion=replace(base.motion,
+                                                max_duration=check_max_duration(max_duration)))
         nq = base.arm.nq
         scn = replace(base, start=_configuration(start, nq, "start"),
                       goal=_configuration(goal, nq, "goal"))
@@ -274,8 +307,12 @@ class EnergyPlanner:
             moved = motion.check()
             add_motion_comparison(comparison, motion)
         clock.finish()
-        return Plan(_Parts(scn, setup, result, check, short, short_check, motion, moved,
+        plan = Plan(_Parts(scn, setup, result, check, short, short_check, motion, moved,
                            comparison, clock, cache, self.trajectory_rate, self.show_progress))
+        if motion.failure:  # a planning outcome: the fastest motion found is over the cap
+            raise NoMotionWithinDuration(motion.failure, motion.energy.duration, plan,
+                                         max_duration=scn.motion.max_duration)
+        return plan
 
 
 def plan(scenario: EnergyScenario | str | os.PathLike, *, seed: int | None = None,
@@ -285,8 +322,9 @@ def plan(scenario: EnergyScenario | str | os.PathLike, *, seed: int | None = Non
     or a ``.toml`` path — exactly as ``mpd-pin run`` does: a
     :class:`~mpd_pin.app.planned.Plan` (energies J). ``seed`` and ``settings`` (the
     keywords of :func:`configure`: planner, evaluation, collision, execution, refine,
-    scheduler, num_nodes) override the scenario's; ``cache`` is a roadmap ``.npz`` to reuse
-    or write.
+    max_duration (s), scheduler, num_nodes) override the scenario's; ``cache`` is a roadmap
+    ``.npz`` to reuse or write. :class:`~mpd_pin.NoMotionWithinDuration` when no motion
+    runs within ``max_duration``.
     """
     if isinstance(scenario, (str, os.PathLike)):
         from .kinds import load_scenario

@@ -23,6 +23,11 @@
 The output folder is created and probed for writing first: one that cannot be written is
 a :class:`~mpd_pin.app.config.ConfigError` before any work, and a folder this run created
 is removed again.
+
+When no motion runs within ``max_duration`` (:class:`~mpd_pin.errors.NoMotionWithinDuration`,
+a planning outcome) the files are still written, for the fastest motion found, with
+result.json's ``feasible`` false and its ``reason``; then the exception is raised again
+(``.result``: result.json as written), and ``mpd-pin run`` exits with status 3.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from ..errors import NoMotionWithinDuration
 from .planned import check_output_dir
 from .planner import EnergyPlanner
 from .scenario import EnergyScenario
@@ -63,6 +69,9 @@ def run_energy_scenario(
         created = check_output_dir(out_dir)
         try:
             plan = planner.plan(scn.start, scn.goal)
+        except NoMotionWithinDuration as exc:  # an answer all the same: its files, then why
+            exc.result = exc.plan.save(out_dir, replay=replay)
+            raise
         except BaseException:
             if created and out_dir.is_dir() and not any(out_dir.iterdir()):
                 out_dir.rmdir()

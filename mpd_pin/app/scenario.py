@@ -57,6 +57,7 @@ A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
     [motion]                   # the returned motion (docs/design.md §9)
     execution = "auto"         # or "stop" (rest at every waypoint) / "nonstop"
     refine = true              # shortcut the roadmap paths where the energy drops
+    optimize = true            # then optimise the motion as a whole (docs/design.md §9g)
     max_duration = 20.0        # s; longest motion allowed (default: no limit)
 
     [task]
@@ -499,14 +500,16 @@ def _compute(t: Table) -> str | None:
 
 
 def _motion(t: Table) -> MotionOptions:
-    """``[motion]``: execution, refine, max_duration (docs/design.md §9)."""
+    """``[motion]``: execution, refine, optimize, max_duration (docs/design.md §9)."""
     from ..motion.energy import EXECUTIONS
 
     execution = t.string("execution", "auto", choices=EXECUTIONS)
     refine = t.boolean("refine", True)
+    optimize = t.boolean("optimize", True)
     max_duration = t.number("max_duration", None, bound=BOUNDS["max_duration"])
     t.done()
-    return MotionOptions(execution=execution, refine=refine, max_duration=max_duration)
+    return MotionOptions(execution=execution, refine=refine, max_duration=max_duration,
+                         optimize=optimize)
 
 
 def parse_energy_scenario(

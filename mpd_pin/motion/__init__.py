@@ -6,7 +6,7 @@ the simulated energy drops; :mod:`mpd_pin.motion.refine` turns roadmap paths int
 returned motion.
 """
 
-from .energy import EXECUTIONS, MotionEnergy, check_waypoints, trajectory_energy
+from .energy import EXECUTIONS, PRICINGS, MotionEnergy, check_waypoints, trajectory_energy
 from .refine import MotionOptions
 from .shortcut import ShortcutResult, shortcut_path
 from .spline import ViaSpline, via_spline
@@ -15,6 +15,7 @@ __all__ = [
     "EXECUTIONS",
     "MotionEnergy",
     "MotionOptions",
+    "PRICINGS",
     "ShortcutResult",
     "ViaSpline",
     "check_waypoints",

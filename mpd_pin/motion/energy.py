@@ -43,6 +43,10 @@ __all__ = ["EXECUTIONS", "MotionEnergy", "trajectory_energy", "check_waypoints",
 #: Values of ``execution``; the first is the default.
 EXECUTIONS = ("auto", "stop", "nonstop")
 
+#: What :func:`trajectory_energy` prices: the executions, and "timed" (a trajectory with its
+#: own times, :mod:`mpd_pin.motion.timed`; not a planning option, so not in EXECUTIONS).
+PRICINGS = EXECUTIONS + ("timed",)
+
 #: Durations of a non-stop piece screened by perfect-tracking energy (the best is simulated;
 #: its neighbours, then all, only while none simulated is feasible).
 SCREEN_GRID = 24
@@ -95,6 +99,10 @@ class MotionEnergy:
     bus_energy: np.ndarray = field(default_factory=lambda: np.zeros(2))
     #: the supply ``total_energy`` is priced with (the drive's)
     supply: Supply = PER_JOINT
+    #: an optimised motion's own curve (docs/design.md §9g): one non-stop piece that
+    #: follows this spline (at unit stretch its duration) instead of the spline through
+    #: ``waypoints``; None for every other motion
+    curve: ViaSpline | None = None
 
     def energy_by_supply(self) -> dict[str, float]:
         """This motion's energy (J) per joint, on a shared bus, and on a shared bus with
@@ -457,6 +465,7 @@ def trajectory_energy(
     checker: Any = None,
     max_duration: float | None = None,
     memo: dict | None = None,
+    times: Any = None,
 ) -> MotionEnergy:
     """E⁺ (J) of the arm running through ``waypoints`` ((m+1, nq) rad; docs/design.md §9a).
 
@@ -468,16 +477,26 @@ def trajectory_energy(
     step (s; default ``options.dt``). With a collision ``checker`` the motion is certified
     free (straight edges for stop; the spline's curve for non-stop, which keeps a stop
     where its curve is not free). ``memo`` (a dict) reuses stop-and-go edges simulated
-    before with it. ValueError for bad waypoints or an unknown execution.
+    before with it. "timed" (with ``times``, (m+1,) s from 0, strictly increasing): the
+    trajectory as given, :func:`mpd_pin.motion.timed.timed_energy`. ValueError for bad
+    waypoints or times, an unknown execution, or ``times`` without "timed" or the reverse.
     """
     from ..planning.roadmap import RoadmapOptions
 
-    if execution not in EXECUTIONS:
-        raise ValueError(f"execution must be one of {', '.join(EXECUTIONS)}, got {execution!r}")
+    if execution not in PRICINGS:
+        raise ValueError(f"execution must be one of {', '.join(PRICINGS)}, got {execution!r}")
+    if (times is None) == (execution == "timed"):
+        raise ValueError("execution 'timed' needs times (s, one per waypoint)" if times is None
+                         else f"times are for execution 'timed', not {execution!r}")
     options = options or RoadmapOptions()
     dt = float(options.dt if dt is None else dt)
     if max_duration is not None and not (math.isfinite(max_duration) and max_duration > 0):
         raise ValueError(f"max_duration must be a number > 0 (s), got {max_duration!r}")
+    if execution == "timed":
+        from .timed import timed_energy
+
+        return timed_energy(drive, waypoints, times, dt=dt, options=options, checker=checker,
+                            max_duration=max_duration)
     W = check_waypoints(drive, waypoints)
     effort_on = bool(options.effort_limits)
     stop = _stop(drive, W, dt, options, checker, effort_on, memo)

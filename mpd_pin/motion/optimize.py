@@ -40,14 +40,15 @@ import numpy as np
 import pinocchio as pin
 from scipy.interpolate import BSpline
 from scipy.optimize import minimize
+from threadpoolctl import threadpool_limits
 
 from ..dynamics.motor import Drive
 from ..dynamics.supply import supply_energy
 from .energy import MotionEnergy, _first_failure, _limits, _simulate_nonstop, _snap
-from .spline import ViaSpline
+from .spline import ViaSpline, unit_knots, via_spline
 
 __all__ = ["OptimizeSettings", "OptimizedMotion", "optimize_curve", "spline_curve",
-           "fit_curve"]
+           "fit_curve", "seed_curve"]
 
 DEGREE = 5
 
@@ -59,12 +60,14 @@ class OptimizeSettings:
     control_points: per joint (0: from the seed, 16–24); samples: Simpson intervals of the
     energy integral (even); collision_samples: times the distances are constrained at
     (0: 4 per knot span); margin: clearance (m) beyond each pair's own margin;
-    activation: pairs closer than this (m) at a collision sample are constrained;
+    activation: pairs closer than this (m) at a collision sample are constrained, at most
+    ``pairs_per_sample`` (the closest) each time a round starts;
     velocity_fraction, effort_fraction: of the URDF limits; max_iterations: SLSQP
     iterations per round; rounds: at most, each adding the pairs its start comes near;
     tolerance: SLSQP's ftol on the energy relative to the seed's; sharpness: of the
-    softplus, relative to the seed's peak power; retries: solves with a doubled margin
-    after a failed certificate.
+    softplus, relative to the seed's peak power; retries: solves again, with collision
+    samples added where the last one came too close between samples, after a failed
+    check.
     """
 
     control_points: int = 0
@@ -72,13 +75,14 @@ class OptimizeSettings:
     collision_samples: int = 0
     margin: float = 0.01
     activation: float = 0.06
+    pairs_per_sample: int = 64
     velocity_fraction: float = 0.99
     effort_fraction: float = 0.95
     max_iterations: int = 40
     rounds: int = 4
     tolerance: float = 1e-5
     sharpness: float = 200.0
-    retries: int = 1
+    retries: int = 2
 
 
 @dataclass
@@ -259,9 +263,17 @@ class _Problem:
         return np.einsum("sa,saib->ib", wP, dP).ravel()
 
     # -- constraints (all as g(x) ≥ 0)
-    def choose_velocity_rows(self, x: np.ndarray) -> None:
+    @staticmethod
+    def _grow(rows: np.ndarray, new: np.ndarray) -> tuple[np.ndarray, int]:
+        both = np.unique(np.vstack([rows, new]), axis=0) if len(new) else rows
+        return both.astype(np.int64), len(both) - len(rows)
+
+    def choose_velocity_rows(self, x: np.ndarray) -> int:
+        """Add the (sample, joint) rows where |q̇| at ``x`` is above half the limit."""
         v = self._dynamics(x)["v"]
-        self.velocity_rows = np.argwhere(np.abs(v) > 0.5 * self.vlim[None, :]).astype(np.int64)
+        self.velocity_rows, n = self._grow(self.velocity_rows,
+                                           np.argwhere(np.abs(v) > 0.5 * self.vlim[None, :]))
+        return n
 
     def velocity(self) -> tuple[np.ndarray, np.ndarray]:
         """Linear rows A x + b ≥ 0: |q̇_k(t_s)| ≤ f v_lim,k at the energy samples where the
@@ -279,10 +291,12 @@ class _Problem:
         A = A.reshape(len(s), -1)
         return np.vstack([-A, A]), np.concatenate([lim - const, lim + const])
 
-    def choose_effort_rows(self, x: np.ndarray) -> None:
+    def choose_effort_rows(self, x: np.ndarray) -> int:
+        """Add the (sample, joint) rows where |τ_ff| at ``x`` is above half the limit."""
         tau = self._dynamics(x)["tau"]
-        near = np.argwhere(np.abs(tau) > 0.5 * self.elim[None, :])
-        self.effort_rows = near.astype(np.int64)
+        self.effort_rows, n = self._grow(self.effort_rows,
+                                         np.argwhere(np.abs(tau) > 0.5 * self.elim[None, :]))
+        return n
 
     def effort(self, x: np.ndarray) -> np.ndarray:
         if not len(self.effort_rows):
@@ -300,6 +314,30 @@ class _Problem:
         J = G[s, k].reshape(len(s), -1)
         return np.vstack([-J, J])
 
+    def add_samples(self, x: np.ndarray, count: int = 400) -> int:
+        """Add collision samples where the curve at ``x``, checked at ``count`` times,
+        comes closer than ``margin`` to any pair's margin between the current samples
+        (each such time, its pairs within ``activation``); returns how many were added."""
+        if self.dist is None or not self.dist.size:
+            return 0
+        tau = np.linspace(0.0, 1.0, count)[1:-1]
+        Q = _basis(self.knots, self.n_c, tau, 0) @ self.C(x)
+        d = self.dist.distances(Q) - self.dist.margins[None, :]
+        low = d.min(axis=1)
+        close = low < 0.5 * self.s.margin  # at an active constraint d = margin at the samples
+        if not close.any():
+            return 0
+        # one new sample per run of close times: the closest of the run
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], close.astype(int), [0]])))
+        bad = np.array([a + int(np.argmin(low[a:b])) for a, b in zip(edges[::2], edges[1::2],
+                                                                      strict=True)])
+        self.tau_c = np.concatenate([self.tau_c, tau[bad]])
+        self.Bc = _basis(self.knots, self.n_c, self.tau_c, 0)
+        self.active = self.active + [np.flatnonzero(d[b] < self.s.activation).astype(np.int64)
+                                     for b in bad]
+        self._cache.pop("collision", None)
+        return int(bad.size)
+
     def choose_pairs(self, x: np.ndarray) -> int:
         """Add to the constrained (sample, pair) set those within ``activation`` (m) of
         their margin at ``x`` (the set only grows, so a solve never forgets a pair it met);
@@ -311,7 +349,8 @@ class _Problem:
         added = 0
         for s, row in enumerate(d):
             near = np.flatnonzero(row < self.s.activation)
-            new = np.setdiff1d(near, self.active[s])
+            near = np.setdiff1d(near, self.active[s])
+            new = near[np.argsort(row[near])[: self.s.pairs_per_sample]]
             if new.size:
                 self.active[s] = np.union1d(self.active[s], new).astype(np.int64)
                 added += int(new.size)
@@ -348,10 +387,9 @@ def _solve(prob: _Problem, x: np.ndarray, settings: OptimizeSettings) -> tuple[n
     effort rows its start point comes near; the solve ends when a round converges and its
     end point adds no collision row. Returns the last iterate and counters."""
     iters, status, msg = 0, 0, ""
-    prob.choose_effort_rows(x)
-    prob.choose_velocity_rows(x)
     for _ in range(max(1, int(settings.rounds))):
-        added = prob.choose_pairs(x)
+        added = (prob.choose_pairs(x) + prob.choose_effort_rows(x)
+                 + prob.choose_velocity_rows(x))
         if iters and status == 0 and not added:
             break
         A, b = prob.velocity()
@@ -364,8 +402,8 @@ def _solve(prob: _Problem, x: np.ndarray, settings: OptimizeSettings) -> tuple[n
         if len(prob.effort_rows):
             cons.append({"type": "ineq", "fun": prob.effort, "jac": prob.effort_jac})
         scale = max(abs(prob.energy(x)), 1e-9)
-        res = minimize(lambda z: prob.energy(z) / scale, x,
-                       jac=lambda z: prob.energy_grad(z) / scale, method="SLSQP",
+        res = minimize(lambda z, k=scale: prob.energy(z) / k, x,
+                       jac=lambda z, k=scale: prob.energy_grad(z) / k, method="SLSQP",
                        bounds=prob.bounds(), constraints=cons,
                        options={"maxiter": int(settings.max_iterations),
                                 "ftol": float(settings.tolerance)})
@@ -373,6 +411,17 @@ def _solve(prob: _Problem, x: np.ndarray, settings: OptimizeSettings) -> tuple[n
         status, msg = int(res.status), str(res.message)
         x = np.asarray(res.x, float)
     return x, {"iterations": iters, "solver_status": status, "solver_message": msg}
+
+
+def seed_curve(drive: Drive, motion: MotionEnergy) -> ViaSpline:
+    """The curve an optimisation starts from (docs/design.md §9g): an optimised motion's
+    own spline; else the non-stop spline through all of ``motion``'s waypoints (a
+    stop-and-go motion's polyline, or a non-stop motion's pieces, joined without stops)."""
+    if motion.curve is not None:
+        return motion.curve
+    vlim, _ = _limits(drive)
+    W = motion.waypoints
+    return via_spline(W, unit_knots(W, vlim))
 
 
 def _control_points(settings: OptimizeSettings, via: int) -> int:
@@ -415,6 +464,14 @@ def optimize_curve(
     C0 = fit_curve(seed_q, n_c, q0, q1)
     if checker is not None and distances is None:
         distances = PairDistances(checker)
+    with threadpool_limits(1):  # small dense algebra: a second BLAS thread only spins
+        return _optimize(drive, checker, seed, T, options, settings, seed_motion, distances,
+                         C0, n_c, w0, c0)
+
+
+def _optimize(drive, checker, seed, T, options, settings, seed_motion, distances, C0, n_c,
+              w0, c0) -> OptimizedMotion:
+    """The body of :func:`optimize_curve` (BLAS on one thread)."""
     rec: dict[str, Any] = {"duration": T, "control_points": n_c,
                            "seed_energy": None if seed_motion is None
                            else float(seed_motion.total_energy)}
@@ -423,29 +480,39 @@ def optimize_curve(
     P0 = prob._dynamics(x0)["P"]
     prob.beta = settings.sharpness / max(float(np.max(np.abs(P0))), 1e-9)
     rec["screen_energy_in"] = prob.energy(x0)
-    margin = settings.margin
     kept = None
     x = x0
+    prob.s = settings
     for attempt in range(int(settings.retries) + 1):
-        prob.s = _replace_margin(settings, margin)
+        if attempt:  # collision samples where the last solve came too close between them
+            rec["samples_added"] = rec.get("samples_added", 0) + prob.add_samples(x)
         try:
-            x, info = _solve(prob, x0 if attempt == 0 else x, prob.s)
+            x, info = _solve(prob, x, settings)
         except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
             rec.update(kept_seed=True, why=f"solver failed: {exc}")
             break
+        for k in ("iterations",):
+            info[k] += rec.get(k, 0)
         rec.update(info)
         rec["screen_energy_out"] = prob.energy(x)
         curve = spline_curve(prob.knots, prob.C(x), T)
         if checker is not None:
-            fail = _first_failure(checker, curve, options.resolution)
+            fail = _sampled_failure(checker, curve)
+            if fail is None and prob.add_samples(x) == 0:
+                fail = _first_failure(checker, curve, options.resolution)
+            elif fail is None:
+                fail = -1.0  # closer than the margin between samples: solve again first
             if fail is not None:
                 rec["certified"] = False
-                rec["why"] = f"not certified free at t = {fail:.3f} s (margin {margin:g} m)"
-                margin *= 2.0
+                rec["why"] = ("not certified free" + (f" at t = {fail:.3f} s" if fail >= 0
+                                                      else " (closer than the margin between "
+                                                      "the collision samples)"))
                 continue
         rec["certified"] = True
+        rec.pop("why", None)
         kept = _price(drive, curve, T, options, seed)
         break
+    margin = settings.margin
     rec.update(seconds=time.perf_counter() - w0, cpu_seconds=time.process_time() - c0,
                margin=margin)
     if kept is None:
@@ -465,10 +532,12 @@ def optimize_curve(
     return OptimizedMotion(kept, rec)
 
 
-def _replace_margin(settings: OptimizeSettings, margin: float) -> OptimizeSettings:
-    from dataclasses import replace
-
-    return replace(settings, margin=float(margin))
+def _sampled_failure(checker: Any, curve: ViaSpline, samples: int = 400) -> float | None:
+    """The first of ``samples`` evenly spaced times (s) at which the curve collides, or None:
+    a cheap test before the certificate, which is slow on a curve that collides."""
+    t = np.linspace(0.0, curve.unit_duration, samples)
+    hit = ~checker.is_free_batch(curve.spline(t))
+    return float(t[np.argmax(hit)]) if hit.any() else None
 
 
 def _price(drive: Drive, curve: ViaSpline, T: float, options, seed: ViaSpline

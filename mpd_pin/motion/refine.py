@@ -30,11 +30,18 @@ __all__ = ["MotionOptions", "NoFeasibleMotion", "RefinedMotion", "refine_candida
 
 class NoFeasibleMotion(ValueError):
     """No candidate gave a feasible motion; ``fastest`` (s) is the shortest duration any
-    candidate's execution allows (what ``max_duration`` would need to be at least)."""
+    candidate's execution allows (what ``max_duration`` would need to be at least);
+    ``motions``: the candidates priced (name → :class:`MotionEnergy`, each infeasible, the
+    other execution in ``.alternative``), in order of preference; ``candidates``: their
+    records (as ``RefinedMotion.candidates``)."""
 
-    def __init__(self, message: str, fastest: float) -> None:
+    def __init__(self, message: str, fastest: float,
+                 motions: dict[str, MotionEnergy] | None = None,
+                 candidates: list[dict[str, Any]] | None = None) -> None:
         super().__init__(message)
         self.fastest = fastest
+        self.motions = dict(motions or {})
+        self.candidates = list(candidates or [])
 
 
 @dataclass(frozen=True)
@@ -47,7 +54,9 @@ class MotionOptions:
     interior: points inside each segment a shortcut may start or end at; max_rounds:
     shortcut rounds per candidate; seed: of the via-point relaxation (reproducible);
     alternatives: extra roadmap paths refined besides the energy optimum and the shortest
-    path (node-disjoint detours, docs/design.md §9f).
+    path (node-disjoint detours, docs/design.md §9f); optimize: optimise the best
+    candidates' motions as a whole at their duration (docs/design.md §9g); seeds: how many
+    candidates (the cheapest first) seed an optimisation.
     """
 
     execution: str = "auto"
@@ -57,6 +66,8 @@ class MotionOptions:
     max_rounds: int = 2
     seed: int = 0
     alternatives: int = 1
+    optimize: bool = True
+    seeds: int = 3
 
     def __post_init__(self) -> None:
         if self.execution not in EXECUTIONS:
@@ -72,6 +83,8 @@ class MotionOptions:
         if int(self.alternatives) != self.alternatives or self.alternatives < 0:
             raise ValueError(f"alternatives must be a non-negative integer, "
                              f"got {self.alternatives!r}")
+        if int(self.seeds) != self.seeds or self.seeds < 1:
+            raise ValueError(f"seeds must be a positive integer, got {self.seeds!r}")
         if int(self.max_rounds) != self.max_rounds or self.max_rounds < 1:
             raise ValueError(f"max_rounds must be a positive integer, got {self.max_rounds!r}")
 
@@ -87,6 +100,8 @@ class RefinedMotion:
     seconds: float = 0.0
     cpu_seconds: float = 0.0
     by_name: dict[str, MotionEnergy] = field(default_factory=dict)
+    #: ``motion.optimization`` of result.json (None: not optimised, docs/design.md §9g)
+    optimization: dict[str, Any] | None = None
 
     def record(self) -> dict[str, Any]:
         """``motion.refinement`` of result.json."""
@@ -209,7 +224,65 @@ def refine_candidates(
         why = "; ".join(f"{r['name']}: {r.get('reason', '')}" for r in records)
         fastest = min((min(m.fastest, m.alternative.fastest if m.alternative else np.inf)
                        for m in by_name.values()), default=np.inf)
-        raise NoFeasibleMotion(f"no feasible motion among the candidates ({why})", fastest)
+        raise NoFeasibleMotion(f"no feasible motion among the candidates ({why})", fastest,
+                               motions=by_name, candidates=records)
     best = min(feasible, key=lambda n: by_name[n].total_energy)
+    optimization = None
+    if motion.optimize:
+        with progress_bar(min(len(feasible), motion.seeds), "optimisation", unit="seed",
+                          enabled=progress) as shown:
+            best, optimization = _optimize_best(drive, checker, options, motion, by_name,
+                                                feasible, best, shown)
     return RefinedMotion(by_name[best], best, records, time.perf_counter() - w0,
-                         time.process_time() - c0, by_name)
+                         time.process_time() - c0, by_name, optimization)
+
+
+#: Candidates costing more than this factor times the cheapest seed no optimisation (each
+#: costs ~0.5–3 CPU-s; measured on Panda and UR5 queries, such seeds never won).
+SEED_FACTOR = 1.4
+
+#: Name of the optimised motion in ``RefinedMotion.by_name`` (its seed is named apart).
+OPTIMIZED = "optimised"
+
+
+def _optimize_best(drive: Drive, checker: Any, options: Any, motion: MotionOptions,
+                   by_name: dict[str, MotionEnergy], feasible: list[str], best: str,
+                   shown) -> tuple[str, dict[str, Any]]:
+    """Optimise the ``motion.seeds`` cheapest feasible candidates at their own duration
+    (docs/design.md §9g; a stop-and-go candidate seeded by the spline through its
+    polyline); the cheapest certified, simulated result that beats its seed becomes
+    ``by_name[OPTIMIZED]``. Returns the winner's name and ``motion.optimization``."""
+    from ..collision.distance import PairDistances
+    from .optimize import optimize_curve, seed_curve
+
+    order = sorted(feasible, key=lambda n: by_name[n].total_energy)
+    cheapest = by_name[order[0]].total_energy
+    order = [n for n in order if by_name[n].total_energy <= SEED_FACTOR * cheapest
+             ][: motion.seeds]
+    runs, winner = [], None
+    distances = None if checker is None else PairDistances(checker)
+    for name in order:
+        me = by_name[name]
+        shown.set_postfix_str(name)
+        out = optimize_curve(drive, checker, seed_curve(drive, me), me.duration, options,
+                             seed_motion=me, distances=distances)
+        runs.append({"seed": name, "seed_execution": me.execution, **out.record})
+        if out.motion is not None and (winner is None
+                                        or out.motion.total_energy < winner[1].total_energy):
+            winner = (name, out.motion)
+        shown.update(1)
+    rec: dict[str, Any] = {"runs": runs, "cpu_seconds": float(sum(r["cpu_seconds"]
+                                                                    for r in runs))}
+    if winner is None:
+        rec.update(kept_seed=True, seed=best, energy_before=by_name[best].total_energy,
+                   energy_after=by_name[best].total_energy,
+                   why="; ".join(f"{r['seed']}: {r.get('why', '')}" for r in runs))
+        return best, rec
+    name, m = winner
+    m.alternative = by_name[name]
+    by_name[OPTIMIZED] = m
+    run = next(r for r in runs if r["seed"] == name)
+    rec.update(kept_seed=False, seed=name, energy_before=by_name[name].total_energy,
+               energy_after=m.total_energy, iterations=run["iterations"],
+               certified=run["certified"])
+    return OPTIMIZED, rec

@@ -3,7 +3,10 @@
 Both executions are re-simulated with the batched integrator recording every RK4 step
 (:func:`~mpd_pin.dynamics.tracking.integrate_tables`): the stop-and-go edges in one batch
 (rows never mix, so each equals :func:`~mpd_pin.dynamics.simulate.edge_outcomes` for that
-edge), each non-stop piece at its chosen duration. One time base:
+edge), each non-stop piece at its chosen duration. A timed motion (execution "timed",
+:mod:`mpd_pin.motion.timed`) keeps its segment durations in ``piece_durations``: its knot
+times are rebuilt from them, t = [0, cumsum], and its spline simulated at the step
+:func:`~mpd_pin.motion.timed.timed_step` gives. One time base:
 t = 0 at the start, each later piece's first sample dropped (the previous piece's end
 stands for it), as :func:`mpd_pin.app.verify.simulate_path` does for roadmap paths.
 """
@@ -43,6 +46,25 @@ def _pieces(drive: Drive, m: MotionEnergy, dt: float):
         P = np.asarray(m.pieces)
         yield from _stop_edges(drive, W[P[:, 0]], W[P[:, 1]],
                                np.asarray(m.piece_durations, float), dt)
+        return
+    if m.curve is not None:  # an optimised motion follows its own spline (§9g)
+        T = float(m.piece_durations[0])
+        _, rec = _simulate_nonstop(drive, m.curve, np.array([T]), dt, record=True)
+        t = np.arange(rec.q.shape[0]) * dt
+        yield (t, rec.q[:, 0], rec.v[:, 0], rec.i[:, 0], rec.V[:, 0], rec.energy_t[:, 0],
+               rec.bus_energy_t[:, 0], m.curve.knots * (T / m.curve.unit_duration))
+        return
+    if m.execution == "timed":  # one piece; piece_durations are its segment durations
+        from .timed import knot_times, timed_spline, timed_step
+
+        knots = knot_times(m.piece_durations)
+        T = float(knots[-1])
+        h = timed_step(T, dt)
+        vs = timed_spline(W, knots)
+        _, rec = _simulate_nonstop(drive, vs, np.array([T]), h, record=True)
+        t = np.arange(rec.q.shape[0]) * h
+        yield (t, rec.q[:, 0], rec.v[:, 0], rec.i[:, 0], rec.V[:, 0], rec.energy_t[:, 0],
+               rec.bus_energy_t[:, 0], knots)
         return
     vlim = np.asarray(drive.arm.model.velocityLimit, dtype=float)
     vlim = np.where(np.isfinite(vlim) & (vlim > 0), vlim, 1.0)

@@ -42,6 +42,7 @@ _LAZY = {
     "MotionEnergy": "motion",
     "MotionOptions": "motion",
     "trajectory_energy": "motion",
+    "optimize_motion": "motion.optimize",
     "motion_series": "motion.series",
     "World": "world",
     "Box": "world",

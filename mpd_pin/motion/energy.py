@@ -103,6 +103,8 @@ class MotionEnergy:
     #: follows this spline (at unit stretch its duration) instead of the spline through
     #: ``waypoints``; None for every other motion
     curve: ViaSpline | None = None
+    #: ``motion.optimization`` of the optimisation that made or kept this motion (§9g)
+    optimization: dict[str, Any] | None = None
 
     def energy_by_supply(self) -> dict[str, float]:
         """This motion's energy (J) per joint, on a shared bus, and on a shared bus with

@@ -47,8 +47,8 @@ from ..dynamics.supply import supply_energy
 from .energy import MotionEnergy, _first_failure, _limits, _simulate_nonstop, _snap
 from .spline import ViaSpline, unit_knots, via_spline
 
-__all__ = ["OptimizeSettings", "OptimizedMotion", "optimize_curve", "spline_curve",
-           "fit_curve", "seed_curve"]
+__all__ = ["OptimizeSettings", "OptimizedMotion", "optimize_curve", "optimize_motion",
+           "spline_curve", "fit_curve", "seed_curve"]
 
 DEGREE = 5
 
@@ -563,3 +563,71 @@ def _price(drive: Drive, curve: ViaSpline, T: float, options, seed: ViaSpline
                         energy_by_execution={"nonstop": total if not reasons else None},
                         fastest=T if math.isfinite(T) else 0.0, bus_energy=B[0].copy(),
                         supply=drive.supply, curve=curve)
+
+
+def optimize_motion(
+    drive: Drive,
+    world: Any,
+    waypoints: Any,
+    duration: float,
+    *,
+    options: Any = None,
+    checker: Any = None,
+    settings: OptimizeSettings | None = None,
+) -> MotionEnergy:
+    """A locally energy-optimal, certified motion of ``duration`` (s) from any joint-space
+    path ``waypoints`` ((m+1, nq) rad: OMPL, MoveIt, a teach pendant; docs/design.md §9g).
+
+    The seed is the non-stop quintic spline through the waypoints (§9b) stretched to
+    ``duration``; the optimum is kept when it is certified free in ``world`` (a
+    :class:`~mpd_pin.World`; or pass a ``checker``), within the limits of ``options``
+    (:class:`~mpd_pin.RoadmapOptions`: dt, resolution, limits) and cheaper simulated than
+    the seed, else the seed's own motion at ``duration`` is returned. Either way a
+    :class:`~mpd_pin.MotionEnergy` like :func:`~mpd_pin.trajectory_energy`'s, with
+    ``.optimization`` saying what happened. ValueError (one line) for waypoints of the wrong
+    shape, with NaN or in collision (naming the row, from 1), or a ``duration`` below the
+    fastest the velocity limits allow the seed (naming that minimum)."""
+    from ..collision import CollisionChecker
+    from ..planning.roadmap import RoadmapOptions
+    from .energy import _fastest, check_waypoints
+
+    options = options or RoadmapOptions()
+    W = check_waypoints(drive, waypoints)
+    try:
+        T = float(duration)
+    except (TypeError, ValueError):
+        raise ValueError(f"duration must be a number > 0 (s), got {duration!r}") from None
+    if not (math.isfinite(T) and T > 0):
+        raise ValueError(f"duration must be a number > 0 (s), got {duration!r}")
+    if checker is None:
+        checker = CollisionChecker(drive.arm, world)
+    free = checker.is_free_batch(W)
+    if not free.all():
+        k = int(np.flatnonzero(~free)[0])
+        raise ValueError(f"waypoint row {k + 1} (counting from 1) is in collision: "
+                         f"{checker.describe_collision(W[k])}")
+    vlim, _ = _limits(drive)
+    seed = via_spline(W, unit_knots(W, vlim))
+    t_min = _fastest(seed, vlim, options, float(options.dt))
+    T = float(_snap(T, float(options.dt)))
+    if T < t_min - 1e-9:
+        raise ValueError(f"duration {duration:g} s is below the fastest the velocity limits "
+                         f"allow this path, {t_min:.3f} s")
+    base = _price(drive, seed, T, options, seed)
+    fail = _first_failure(checker, seed, options.resolution)
+    if fail is not None:
+        base.feasible = False
+        base.reason = "; ".join(filter(None, [base.reason, "the spline through the waypoints "
+                                              f"is not certified free at t = "
+                                              f"{fail * T / seed.unit_duration:.3f} s"]))
+    base.curve = None  # the seed is the spline through its waypoints: recorded as such
+    base.fastest = t_min
+    out = optimize_curve(drive, checker, seed, T, options, settings=settings,
+                         seed_motion=base)
+    if out.motion is None:
+        base.optimization = out.record
+        return base
+    out.motion.fastest = t_min
+    out.motion.optimization = out.record
+    out.motion.alternative = base
+    return out.motion

@@ -123,8 +123,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                               replay=not args.no_replay)
     except NoMotionWithinDuration as exc:  # main prints it (status 3); the files are written
         if exc.result is not None:
-            exc.args = (f"{exc}; the fastest motion found is in {str(out / 'result.json')!r} "
-                        "(feasible: false)",)
+            exc.args = (f"{exc}; its files are in {str(out)!r} (result.json: feasible "
+                        "false)",)
         raise
     print(summary_line(scn, result, out))
     return 0

@@ -96,6 +96,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     flags = {"--evaluation": args.evaluation, "--collision": args.collision,
              "--scheduler": args.scheduler,
              "--execution": args.execution, "--no-refine": args.no_refine or None,
+             "--no-optimize": args.no_optimize or None,
              "--nodes": args.nodes, "--max-duration": max_duration}
     given = [flag for flag, value in flags.items() if value is not None]
     if given:
@@ -111,6 +112,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             scn = configure(scn, evaluation=args.evaluation, collision=args.collision,
                             scheduler=args.scheduler,
                             execution=args.execution, refine=False if args.no_refine else None,
+                            optimize=False if args.no_optimize else None,
                             num_nodes=args.nodes, max_duration=max_duration)
         except ConfigError as exc:
             raise ConfigError(f"--{exc}") from None
@@ -219,9 +221,20 @@ def cmd_energy(args: argparse.Namespace) -> int:
         max_duration = scn.motion.max_duration  # [motion] max_duration (s) or None
     motion = trajectory_energy(scn.drive(), pf.waypoints, execution, options=scn.options,
                                checker=checker, max_duration=max_duration, times=times)
+    if args.optimize:  # the priced motion's duration, or the cap (docs/design.md §9g)
+        from ..motion.optimize import optimize_motion
+
+        duration = max_duration if max_duration is not None else motion.duration
+        try:
+            motion = optimize_motion(scn.drive(), scn.world, pf.waypoints, duration,
+                                     options=scn.options, checker=checker)
+        except ValueError as exc:
+            raise ConfigError(f"--optimize: {exc}") from None
     doc = {"scenario": scn.name, "pathfile": str(pathfile), "joint_names": names,
            **motion.to_dict(), "supply": motion.supply.describe(),
            "energy_by_supply": motion.energy_by_supply()}
+    if motion.optimization is not None:
+        doc["optimization"] = motion.optimization
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         write_json(out, doc)
@@ -283,6 +296,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--execution", choices=("auto", "stop", "nonstop"), default=None,
                    help="override [motion] execution: the cheaper of the two (auto), rest at "
                         "every waypoint (stop) or one smooth motion (nonstop)")
+    p.add_argument("--no-optimize", action="store_true",
+                   help="return the refined motion without optimising it as a whole "
+                        "([motion] optimize = false, docs/design.md §9g)")
     p.add_argument("--no-refine", action="store_true",
                    help="return the roadmap path as it is (no energy-aware shortcuts)")
     p.add_argument("--nodes", type=int, default=None, metavar="N",
@@ -315,6 +331,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "default without times)")
     p.add_argument("--out", default=None, metavar="FILE",
                    help="JSON file to write (default: <PATHFILE stem>_energy.json beside it)")
+    p.add_argument("--optimize", action="store_true",
+                   help="optimise the path as a whole at its priced duration (or "
+                        "--max-duration): a locally energy-optimal, certified motion "
+                        "(mpd_pin.optimize_motion, docs/design.md §9g)")
     p.add_argument("--max-duration", type=float, default=None, metavar="S",
                    help="longest the whole motion may take (s); default: the scenario's "
                         "max_duration if it has one, else no limit")

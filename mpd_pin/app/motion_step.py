@@ -102,6 +102,8 @@ class RunMotion:
         }
         if self.refined is not None:
             out["refinement"] = self.refined.record()
+            if self.refined.optimization is not None:
+                out["optimization"] = self.refined.optimization
         return out
 
 

@@ -65,11 +65,13 @@ def configure(scn: EnergyScenario, *, seed: int | None = None, planner: str | No
               evaluation: str | None = None, execution: str | None = None,
               refine: bool | None = None, scheduler: Any = None,
               num_nodes: int | None = None, collision: str | None = None,
-              max_duration: float | None = None) -> EnergyScenario:
+              max_duration: float | None = None,
+              optimize: bool | None = None) -> EnergyScenario:
     """``scn`` with some settings replaced (None: keep the scenario's): ``[roadmap] seed``,
     ``num_nodes``, ``evaluation`` and ``collision`` ("lazy"/"eager"), ``[planner] algorithm``,
-    ``[motion] execution`` ("auto"/"stop"/"nonstop"), ``refine`` and ``max_duration`` (s,
-    the longest the motion may take), ``[compute] scheduler`` ("threads", "local[:N]", an
+    ``[motion] execution`` ("auto"/"stop"/"nonstop"), ``refine``, ``optimize`` (the
+    trajectory optimisation, docs/design.md §9g) and ``max_duration`` (s, the longest the
+    motion may take), ``[compute] scheduler`` ("threads", "local[:N]", an
     address, or a Dask client). ConfigError (one line naming the setting) for a bad
     value."""
     from ..motion.energy import EXECUTIONS
@@ -101,6 +103,8 @@ def configure(scn: EnergyScenario, *, seed: int | None = None, planner: str | No
     if max_duration is not None:
         max_duration = check_max_duration(max_duration)
     motion = scn.motion
+    if optimize is not None:
+        motion = replace(motion, optimize=bool(optimize))
     if execution is not None or refine is not None or max_duration is not None:
         motion = replace(motion, execution=execution or motion.execution,
                          refine=motion.refine if refine is None else bool(refine),

@@ -106,6 +106,12 @@ class MotionEnergy:
     #: ``motion.optimization`` of the optimisation that made or kept this motion (§9g)
     optimization: dict[str, Any] | None = None
 
+    @property
+    def fastest_duration(self) -> float:
+        """``fastest`` (s): the shortest duration this execution allows these waypoints
+        (the velocity limits' bound; the effort limits may need longer)."""
+        return float(self.fastest)
+
     def energy_by_supply(self) -> dict[str, float]:
         """This motion's energy (J) per joint, on a shared bus, and on a shared bus with
         this supply's regeneration (docs/design.md §3i)."""

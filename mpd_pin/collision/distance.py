@@ -76,6 +76,13 @@ class PairDistances:
         self._j1 = joint[self._first] if self.pairs.size else np.zeros(0, np.int64)
         self._j2 = joint[self._second] if self.pairs.size else np.zeros(0, np.int64)
         self.nq = self.model.nq
+        active = np.zeros(len(cps), dtype=bool)
+        active[self.pairs] = True
+        for k, on in enumerate(active.tolist()):
+            if on:
+                self.gd.activateCollisionPair(k)
+            else:
+                self.gd.deactivateCollisionPair(k)
 
     @property
     def size(self) -> int:
@@ -94,10 +101,12 @@ class PairDistances:
         (S, nq) rad."""
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
         out = np.empty((Q.shape[0], self.size))
+        model, data, gm, gd = self.model, self.data, self.gm, self.gd
+        results = gd.distanceResults
+        pairs = self.pairs.tolist()
         for s, q in enumerate(Q):
-            self._place(q, False)
-            for c, k in enumerate(self.pairs.tolist()):
-                out[s, c] = pin.computeDistance(self.gm, self.gd, k).min_distance
+            pin.computeDistances(model, data, gm, gd, q)  # the active (enforced) pairs
+            out[s] = [results[k].min_distance for k in pairs]
         return out
 
     def _jacobians(self) -> np.ndarray:

@@ -67,7 +67,7 @@ class OptimizeSettings:
     tolerance: SLSQP's ftol on the energy relative to the seed's; sharpness: of the
     softplus, relative to the seed's peak power; retries: solves again, with collision
     samples added where the last one came too close between samples, after a failed
-    check.
+    check; budget: CPU seconds a solve may take before it stops where it is.
     """
 
     control_points: int = 0
@@ -82,7 +82,8 @@ class OptimizeSettings:
     rounds: int = 4
     tolerance: float = 1e-5
     sharpness: float = 200.0
-    retries: int = 2
+    retries: int = 3
+    budget: float = 4.0
 
 
 @dataclass
@@ -327,10 +328,15 @@ class _Problem:
         close = low < 0.5 * self.s.margin  # at an active constraint d = margin at the samples
         if not close.any():
             return 0
-        # one new sample per run of close times: the closest of the run
+        # per run of close times: its closest time and up to 6 more spread over the run
+        # and a step beyond each end (one sample per run chased the penetration along)
         edges = np.flatnonzero(np.diff(np.concatenate([[0], close.astype(int), [0]])))
-        bad = np.array([a + int(np.argmin(low[a:b])) for a, b in zip(edges[::2], edges[1::2],
-                                                                      strict=True)])
+        picks = []
+        for a, b in zip(edges[::2], edges[1::2], strict=True):
+            a, b = max(a - 1, 0), min(b + 1, tau.size)
+            picks += [a + int(np.argmin(low[a:b]))]
+            picks += np.linspace(a, b - 1, min(b - a, 6)).round().astype(int).tolist()
+        bad = np.unique(picks)
         self.tau_c = np.concatenate([self.tau_c, tau[bad]])
         self.Bc = _basis(self.knots, self.n_c, self.tau_c, 0)
         self.active = self.active + [np.flatnonzero(d[b] < self.s.activation).astype(np.int64)
@@ -381,12 +387,18 @@ class _Problem:
 
 
 # ----------------------------------------------------------------------------- solve
-def _solve(prob: _Problem, x: np.ndarray, settings: OptimizeSettings) -> tuple[np.ndarray,
-                                                                               dict]:
+#: A row below −this (m for distances, rad/s, N·m) makes an iterate infeasible for
+#: :func:`_solve`'s record of the cheapest feasible one.
+FEASIBLE = 1e-4
+
+
+def _solve(prob: _Problem, x: np.ndarray, settings: OptimizeSettings,
+           deadline: float = np.inf) -> tuple[np.ndarray, dict]:
     """Rounds of SLSQP from ``x``. Each round adds the (sample, pair) rows, velocity and
     effort rows its start point comes near; the solve ends when a round converges and its
     end point adds no collision row. Returns the last iterate and counters."""
     iters, status, msg = 0, 0, ""
+    best: list = [np.inf, None]  # energy, iterate
     for _ in range(max(1, int(settings.rounds))):
         added = (prob.choose_pairs(x) + prob.choose_effort_rows(x)
                  + prob.choose_velocity_rows(x))
@@ -402,15 +414,32 @@ def _solve(prob: _Problem, x: np.ndarray, settings: OptimizeSettings) -> tuple[n
         if len(prob.effort_rows):
             cons.append({"type": "ineq", "fun": prob.effort, "jac": prob.effort_jac})
         scale = max(abs(prob.energy(x)), 1e-9)
+
+        def keep(z, cons=cons, inside=True):  # the cheapest iterate within every row so far
+            if inside and time.process_time() > deadline:
+                raise StopIteration  # SLSQP stops and returns its current iterate
+            worst = min((float(np.min(c["fun"](z), initial=np.inf)) for c in cons),
+                        default=np.inf)
+            if worst >= -FEASIBLE and prob.energy(z) < best[0]:
+                best[:] = [prob.energy(z), np.array(z, float)]
+
+        if time.process_time() > deadline:
+            status, msg = 9, "CPU budget used up"
+            break
+        keep(x, inside=False)
         res = minimize(lambda z, k=scale: prob.energy(z) / k, x,
                        jac=lambda z, k=scale: prob.energy_grad(z) / k, method="SLSQP",
-                       bounds=prob.bounds(), constraints=cons,
+                       bounds=prob.bounds(), constraints=cons, callback=keep,
                        options={"maxiter": int(settings.max_iterations),
                                 "ftol": float(settings.tolerance)})
         iters += int(res.nit)
         status, msg = int(res.status), str(res.message)
         x = np.asarray(res.x, float)
-    return x, {"iterations": iters, "solver_status": status, "solver_message": msg}
+        keep(x, inside=False)
+    info = {"iterations": iters, "solver_status": status, "solver_message": msg}
+    if best[1] is not None and status != 0:  # stopped early: its last iterate may be outside
+        x = best[1]
+    return x, info
 
 
 def seed_curve(drive: Drive, motion: MotionEnergy) -> ViaSpline:
@@ -484,10 +513,13 @@ def _optimize(drive, checker, seed, T, options, settings, seed_motion, distances
     x = x0
     prob.s = settings
     for attempt in range(int(settings.retries) + 1):
+        if attempt and time.process_time() > c0 + settings.budget:
+            rec["why"] = rec.get("why", "") + f"; CPU budget ({settings.budget:g} s) used up"
+            break
         if attempt:  # collision samples where the last solve came too close between them
             rec["samples_added"] = rec.get("samples_added", 0) + prob.add_samples(x)
         try:
-            x, info = _solve(prob, x, settings)
+            x, info = _solve(prob, x, settings, deadline=c0 + settings.budget)
         except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
             rec.update(kept_seed=True, why=f"solver failed: {exc}")
             break

@@ -118,7 +118,7 @@ def spline_curve(knots: np.ndarray, C: np.ndarray, duration: float) -> ViaSpline
     spl = BSpline(np.asarray(knots, float) * T, np.asarray(C, float), DEGREE)
     times = np.unique(spl.t)
     times = times[(times >= 0) & (times <= T)]
-    return ViaSpline(spl(times), times, spl)
+    return ViaSpline(spl(times), times, spl, optimised=True)
 
 
 def fit_curve(q_of_tau, n_c: int, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
@@ -484,7 +484,10 @@ def optimize_curve(
     dt = float(options.dt)
     T = float(_snap(duration, dt))
     q0, q1 = seed.waypoints[0], seed.waypoints[-1]
-    n_c = _control_points(settings, seed.waypoints.shape[0] - 2)
+    if seed.optimised and not settings.control_points:  # a restart: its own polygon
+        n_c = int(seed.spline.c.shape[0])
+    else:
+        n_c = _control_points(settings, seed.waypoints.shape[0] - 2)
     stretch = seed.unit_duration
 
     def seed_q(tau):

@@ -44,6 +44,9 @@ class ViaSpline:
     waypoints: np.ndarray
     knots: np.ndarray
     spline: object  # scipy BSpline, degree 5, vector valued
+    #: True for an optimised curve (docs/design.md §9g): ``spline`` is its own control
+    #: polygon, and ``waypoints`` are only its points at the breakpoints
+    optimised: bool = False
 
     @property
     def unit_duration(self) -> float:

@@ -341,11 +341,25 @@ def _potential(drive: Drive, Q: np.ndarray) -> np.ndarray:
     return np.array([pin.computePotentialEnergy(model, data, q) for q in Q])
 
 
+def _is_prismatic(model: pin.Model, j: int) -> bool:
+    return model.joints[j].shortname().startswith(("JointModelP", "JointModelPrismatic"))
+
+
+def _extension(model: pin.Model, j: int) -> float:
+    """The farthest (m) prismatic joint ``j`` moves its child from its placement:
+    max(|lower|, |upper|) (inf without limits); 0 for any other joint."""
+    if not _is_prismatic(model, j):
+        return 0.0
+    i = model.joints[j].idx_q
+    lo, hi = float(model.lowerPositionLimit[i]), float(model.upperPositionLimit[i])
+    return max(abs(lo), abs(hi)) if np.isfinite(lo) and np.isfinite(hi) else np.inf
+
+
 def _gravity_torque_bound(model: pin.Model) -> np.ndarray:
     """(nq,) upper bound of |G_k(q)| over all q (N·m, N for a prismatic joint): g · Σ over
     the bodies moved by joint k of mass × (distance from joint k to the body's centre of
-    mass, bounded by the chain of joint placements; 1 for a prismatic joint), by the
-    triangle inequality. For a revolute joint the placements from joint k's origin on
+    mass, bounded by the chain of joint placements plus the farthest extension of every
+    prismatic joint on the way; 1 for a prismatic joint), by the triangle inequality. For a revolute joint the placements from joint k's origin on
     bound the distance to its axis too."""
     g = float(np.linalg.norm(model.gravity.linear))
     nj = model.njoints
@@ -354,7 +368,7 @@ def _gravity_torque_bound(model: pin.Model) -> np.ndarray:
         idx = model.joints[k].idx_v
         if model.joints[k].nv != 1:
             continue
-        prismatic = model.joints[k].shortname().startswith(("JointModelP", "JointModelPrismatic"))
+        prismatic = _is_prismatic(model, k)
         total = 0.0
         for b in range(k, nj):
             # walk from body b up to joint k, summing placement lengths
@@ -364,6 +378,7 @@ def _gravity_torque_bound(model: pin.Model) -> np.ndarray:
                     ok = True
                     break
                 reach += float(np.linalg.norm(model.jointPlacements[j].translation))
+                reach += _extension(model, j)  # a prismatic joint between k and b slides
                 j = model.parents[j]
             if ok:  # a force for a prismatic joint: |G_k| ≤ g Σ m
                 inertia = model.inertias[b]

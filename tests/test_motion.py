@@ -21,7 +21,7 @@ import mpd_pin as mp
 from mpd_pin.app.kinds import load_scenario
 from mpd_pin.collision import CollisionChecker
 from mpd_pin.motion.energy import _simulate_nonstop, trajectory_energy
-from mpd_pin.motion.refine import MotionOptions, refine_candidates
+from mpd_pin.motion.refine import OPTIMIZED, MotionOptions, refine_candidates
 from mpd_pin.motion.series import motion_series
 from mpd_pin.motion.shortcut import _dp, densify, shortcut_path
 from mpd_pin.motion.spline import arc_boxes, pieces, unit_knots, via_spline
@@ -371,14 +371,47 @@ def test_relaxation_keeps_only_a_real_improvement(quick, free_path, monkeypatch)
 
 
 def test_refine_picks_the_cheapest_candidate(quick, free_path):
+    """Without the whole-motion optimisation (docs/design.md §9g) the motion returned is
+    the cheapest candidate as priced."""
     scn, drive, checker = quick
     W = free_path
     W2 = np.vstack([W[:1], (W[:1] + W[1:2]) / 2, W[1:]])  # one more stop on the way
     out = refine_candidates(drive, checker, scn.options, {"a": W, "b": W2},
-                            MotionOptions(execution="stop", refine=False))
+                            MotionOptions(execution="stop", refine=False, optimize=False))
     e = {r["name"]: r["total_energy"] for r in out.candidates}
     assert out.candidate == min(e, key=e.get)
     assert out.motion.total_energy == pytest.approx(min(e.values()))
+    assert out.optimization is None and set(out.by_name) == {"a", "b"}
+
+
+def test_refine_returns_the_optimum_of_the_candidates(quick, free_path):
+    """With the optimisation (the default) the motion returned is the optimum ("optimised"):
+    seeded by a priced candidate, at that candidate's duration, cheaper than every
+    candidate's priced motion, its energy that of a recorded re-simulation, free at dense
+    samples of its curve and from the start to the goal."""
+    scn, drive, checker = quick
+    W = free_path
+    W2 = np.vstack([W[:1], (W[:1] + W[1:2]) / 2, W[1:]])
+    out = refine_candidates(drive, checker, scn.options, {"a": W, "b": W2},
+                            MotionOptions(refine=False))
+    priced = {n: m for n, m in out.by_name.items() if n != OPTIMIZED}
+    assert set(priced) == {"a", "b"} and all(m.feasible for m in priced.values())
+    assert out.candidate == OPTIMIZED and out.motion is out.by_name[OPTIMIZED]
+    opt = out.optimization
+    assert opt["kept_seed"] is False and opt["certified"] is True
+    seed = priced[opt["seed"]]
+    assert out.motion.alternative is seed
+    assert opt["energy_before"] == seed.total_energy
+    assert opt["energy_after"] == out.motion.total_energy
+    assert out.motion.feasible and out.motion.execution == "nonstop"
+    assert out.motion.total_energy < min(m.total_energy for m in priced.values())
+    assert out.motion.duration == pytest.approx(seed.duration, abs=1e-12)
+    series = motion_series(drive, out.motion, scn.options.dt)
+    np.testing.assert_allclose(series["energy_t"][-1], out.motion.energy_per_joint, rtol=1e-9)
+    assert series["t"][-1] == pytest.approx(out.motion.duration, abs=1e-9)
+    Q = out.motion.curve.spline(np.linspace(0.0, out.motion.duration, 5000))
+    assert checker.is_free_batch(Q).all()
+    np.testing.assert_allclose(Q[[0, -1]], W[[0, -1]], atol=1e-12)
 
 
 def test_optional_candidates_are_pruned_after_their_shortcut(quick, free_path, monkeypatch):
@@ -391,10 +424,14 @@ def test_optional_candidates_are_pruned_after_their_shortcut(quick, free_path, m
                             MotionOptions(), optional=frozenset({"b"}))
     rec = {r["name"]: r for r in out.candidates}
     assert rec["b"]["reason"].startswith("pruned") and "stop_energy_relaxed" not in rec["b"]
-    assert out.candidate == "a" and "b" not in out.by_name
+    assert "b" not in out.by_name
+    # the pruned detour seeds no optimisation either: the optimum returned is "a"'s
+    assert [r["seed"] for r in out.optimization["runs"]] == ["a"]
+    assert out.candidate == OPTIMIZED and out.optimization["seed"] == "a"
+    assert out.motion.total_energy < out.by_name["a"].total_energy
     monkeypatch.setattr(refine, "PRUNE", 1e9)  # never: both refined and priced
     out = refine_candidates(drive, checker, scn.options, {"a": free_path, "b": W2},
-                            MotionOptions(), optional=frozenset({"b"}))
+                            MotionOptions(optimize=False), optional=frozenset({"b"}))
     assert set(out.by_name) == {"a", "b"}
 
 

@@ -7,7 +7,8 @@ After the plan (:mod:`mpd_pin.app.plan`) and the shortest-path comparison,
   path itself, stop-and-go, with the roadmap's own energies — nothing is simulated again,
   so these energies are bit-identical to the roadmap optimum;
 * otherwise the candidates — the energy optimum and the shortest path (refine), or the
-  optimum alone (no refine) — go through
+  optimum alone (no refine), and with a ``max_duration`` the shortest path shortcut for
+  time (:func:`~mpd_pin.motion.shortcut.time_shortcut`, priced as it is) — go through
   :func:`~mpd_pin.motion.refine.refine_candidates`; the comparison's shortest path is
   refined and priced the same way;
 * hidden obstacles (execution with sensing and repair): the travelled roadmap path,
@@ -19,9 +20,13 @@ the clearance bands too.
 
 With ``[motion] max_duration`` (or a query's ``max_duration``) and no candidate within it,
 the run still has an answer, a planning outcome rather than bad input: the fastest motion
-found (the candidate whose execution allows the least duration, priced again at that
-duration, without the cap), flagged infeasible (``RunMotion.failure`` says why; the
-planner raises :class:`~mpd_pin.errors.NoMotionWithinDuration` with its plan).
+found (the candidate and execution with the least fastest feasible duration,
+``MotionEnergy.fastest``, priced again at that duration), flagged infeasible
+(``RunMotion.failure`` says why; the planner raises
+:class:`~mpd_pin.errors.NoMotionWithinDuration` with its plan).
+
+``RunMotion.energy_duration`` is result.json ``energy_duration``: the energy–time fronts
+of the motion returned and of every candidate (:mod:`mpd_pin.motion.front`).
 """
 
 from __future__ import annotations
@@ -35,9 +40,11 @@ from typing import Any
 import numpy as np
 
 from ..dynamics.supply import supply_power
-from ..motion.energy import MotionEnergy, check_waypoints, trajectory_energy
+from ..motion.energy import STOP_RULE, MotionEnergy, check_waypoints, trajectory_energy
+from ..motion.front import energy_duration_record
 from ..motion.refine import NoFeasibleMotion, RefinedMotion, refine_candidates
 from ..motion.series import motion_series
+from ..motion.shortcut import time_shortcut
 from .config import ConfigError
 from .plan import PlanResult, Setup, path_length
 from .scenario import EnergyScenario
@@ -47,6 +54,8 @@ __all__ = ["RunMotion", "make_motion", "roadmap_motion", "fastest_duration",
            "no_motion_message"]
 
 OPTIMUM, SHORTEST = "energy optimum", "shortest path"
+#: The candidate for a cycle time: the shortest path shortcut for time (docs/design.md §9f).
+QUICKEST = "shortest path, shortcut for time"
 
 
 @dataclass
@@ -54,10 +63,12 @@ class RunMotion:
     """The returned motion, its time series (:func:`~mpd_pin.motion.series.motion_series`),
     the refinement (None when the roadmap path is returned as it is), the shortest path
     refined the same way (None likewise) and a note on how it was made; ``fastest`` (s):
-    the least duration any feasible candidate's execution allows (all candidates' when none
-    is feasible; None: the motion's own duration); ``failure``: empty when the motion is
-    the answer, else why there is none within ``max_duration`` (one line, the motion then
-    being the fastest one found, infeasible)."""
+    the fastest feasible motion of the returned geometry (``MotionEnergy.fastest``; with no
+    motion within ``max_duration``, the fastest one found over the candidates; None: the
+    motion's own duration); ``failure``: empty when the motion is the answer, else why
+    there is none within ``max_duration`` (one line, the motion then being the fastest one
+    found, infeasible); ``energy_duration``: result.json ``energy_duration`` (the
+    energy–time fronts, :func:`~mpd_pin.motion.front.energy_duration_record`)."""
 
     energy: MotionEnergy
     series: dict[str, np.ndarray]
@@ -66,6 +77,7 @@ class RunMotion:
     note: str
     fastest: float | None = None
     failure: str = ""
+    energy_duration: dict[str, Any] | None = None
 
     @property
     def fastest_duration(self) -> float:
@@ -99,6 +111,7 @@ class RunMotion:
                 abs(drawn - total) / abs(total) if total != 0 else 0.0),
             "note": self.note,
             "fastest_duration": self.fastest_duration,
+            "duration_rule": m.duration_rule or STOP_RULE,
         }
         if self.refined is not None:
             out["refinement"] = self.refined.record()
@@ -121,10 +134,13 @@ def roadmap_motion(drive, setup: Setup, plan: PlanResult, check: Verification) -
     energy = np.asarray(plan.energy, dtype=float)
     bus = roadmap.path_bus(path) if roadmap.bus is not None else np.zeros(2)
     total = path_supply_energy(roadmap, path, energy)
-    return MotionEnergy("stop", W, energy, total, float(T.sum()), 0.0, 0.0, 0.0,
+    duration = float(T.sum())
+    return MotionEnergy("stop", W, energy, total, duration, 0.0, 0.0, 0.0,
                         True, max(m - 1, 0), [(k, k + 1) for k in range(m)], T,
-                        energy_by_execution={"stop": total}, bus_energy=bus,
-                        supply=drive.supply)
+                        energy_by_execution={"stop": total}, fastest=duration,
+                        velocity_fastest=duration, longest=duration,
+                        duration_rule="the roadmap path as it is: " + STOP_RULE,
+                        bus_energy=bus, supply=drive.supply)
 
 
 def path_supply_energy(roadmap, path: list[int], energy: np.ndarray) -> float:
@@ -146,9 +162,9 @@ def _checker(scn: EnergyScenario, setup: Setup):
 
 
 def fastest_duration(motions: dict[str, MotionEnergy]) -> float | None:
-    """The least duration (s, ``MotionEnergy.fastest``) the executions of ``motions`` allow
-    (each one and its ``.alternative``): over the feasible ones, or over all when none is;
-    None when there are none."""
+    """The least ``MotionEnergy.fastest`` (s: the fastest feasible duration of each
+    execution and geometry) over ``motions`` (each one and its ``.alternative``): over the
+    feasible ones, or over all when none is; None when there are none."""
     pool = [m for m0 in motions.values() for m in (m0, m0.alternative)
             if m is not None and m.fastest > 0 and math.isfinite(m.fastest)]
     good = [m.fastest for m in pool if m.feasible]
@@ -176,42 +192,24 @@ def _over(motion: MotionEnergy, max_duration: float) -> MotionEnergy:
     return dataclasses.replace(motion, feasible=False, reason=reason or motion.reason)
 
 
-#: The fastest feasible duration of a non-stop candidate is found by bisection on the cap
-#: down to this share of it (or two RK4 steps, whichever is more).
-FASTEST_TOLERANCE = 0.005
-
-
 def _fastest_feasible(drive, W: np.ndarray, execution: str, options, checker,
-                      lower: float) -> MotionEnergy | None:
-    """The fastest feasible motion through ``W`` under ``execution`` ("stop": its roadmap
-    timing, the one duration it has; "nonstop": bisection on ``max_duration`` between
-    ``lower`` (s, the velocity limits' bound) and the least-energy duration without a cap,
-    to :data:`FASTEST_TOLERANCE`), or None when it has none (effort limits, collision)."""
-    free = trajectory_energy(drive, W, execution, options=options, checker=checker)
-    if not free.feasible:
-        return None
-    if execution == "stop":
-        return free
-    best, lo, hi = free, float(lower), float(free.duration)
-    tol = max(FASTEST_TOLERANCE * lo, 2 * float(options.dt))
-    while hi - lo > tol:
-        mid = 0.5 * (lo + hi)
-        m = trajectory_energy(drive, W, execution, options=options, checker=checker,
-                              max_duration=mid)
-        if m.feasible:
-            best, hi = m, min(mid, float(m.duration))
-        else:
-            lo = mid
-    return best
+                      fastest: float) -> MotionEnergy | None:
+    """The motion through ``W`` under ``execution`` at its fastest feasible duration
+    ``fastest`` (s, ``MotionEnergy.fastest``: "stop", its roadmap timing; "nonstop", each
+    piece's fastest feasible stretch, docs/design.md §9c), priced with that as
+    ``max_duration``; None when it is not feasible (effort limits, collision)."""
+    m = trajectory_energy(drive, W, execution, options=options, checker=checker,
+                          max_duration=float(fastest))
+    return m if m.feasible else None
 
 
 def _fastest_found(scn: EnergyScenario, drive, checker, exc: NoFeasibleMotion,
                    refined_note: str, started: tuple[float, float]) -> RunMotion:
     """No candidate within ``[motion] max_duration``: the fastest feasible motion found
-    without the cap (over the candidates and both executions, :func:`_fastest_feasible`),
-    as an infeasible :class:`RunMotion` whose ``failure`` names its duration. When no
-    candidate is feasible even without the cap, the one the velocity limits allow the
-    least duration, priced at that duration (infeasible, its reason saying why)."""
+    (over the candidates and both executions, each at its ``MotionEnergy.fastest``,
+    :func:`_fastest_feasible`), as an infeasible :class:`RunMotion` whose ``failure`` names
+    its duration. When no candidate is feasible at any duration, the one with the least
+    lower bound, priced at that bound (infeasible, its reason saying why)."""
     opts = scn.motion
     cap = float(opts.max_duration)
     pool = [(name, m) for name, m0 in exc.motions.items() for m in (m0, m0.alternative)
@@ -228,25 +226,29 @@ def _fastest_found(scn: EnergyScenario, drive, checker, exc: NoFeasibleMotion,
                                  m.fastest)
         if fast is not None and (found is None or fast.duration < found[1].duration):
             found = (name, fast)
-    if found is None:  # infeasible even without the cap: the velocity limits' fastest
+    if found is None:  # infeasible at any duration: priced at its lower bound
         name, m = pool[0]
         execution = m.execution if m.execution in ("stop", "nonstop") else "nonstop"
         found = (name, trajectory_energy(drive, m.waypoints, execution, options=scn.options,
                                          checker=checker, max_duration=float(m.fastest)))
     name, fast = found
+    fast.duration_rule = ("the fastest feasible motion found (no candidate within "
+                          "max_duration): " + (fast.duration_rule or STOP_RULE))
     refined = RefinedMotion(fast, name, exc.candidates, time.perf_counter() - started[0],
                             time.process_time() - started[1], dict(exc.motions))
     series = motion_series(drive, fast, scn.options.dt)
     if fast.feasible and fast.duration <= cap + 1e-9:  # found within the cap after all
         note = (f"the fastest motion found ({fast.execution}, from the {name}; "
                 f"{refined_note})")
-        return RunMotion(fast, series, refined, None, note, fastest=float(fast.duration))
+        return RunMotion(fast, series, refined, None, note, fastest=float(fast.duration),
+                         energy_duration=energy_duration_record(name, fast, exc.motions, cap))
     motion = _over(fast, cap)
     refined.motion = motion
     note = (f"no motion within max_duration {cap:g} s: the fastest one found "
-            f"({fast.execution}, from the {name}; {refined_note}), without the cap")
+            f"({fast.execution}, from the {name}; {refined_note}), at its fastest duration")
     return RunMotion(motion, series, refined, None, note, fastest=float(motion.duration),
-                     failure=no_motion_message(cap, motion))
+                     failure=no_motion_message(cap, motion),
+                     energy_duration=energy_duration_record(name, motion, exc.motions, cap))
 
 
 def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Verification,
@@ -268,7 +270,8 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
             energy = _over(energy, float(opts.max_duration))
             failure = no_motion_message(float(opts.max_duration), energy)
         return RunMotion(energy, check.series, None, None, note, fastest=energy.duration,
-                         failure=failure)
+                         failure=failure, energy_duration=energy_duration_record(
+                             OPTIMUM, energy, {OPTIMUM: energy}, opts.max_duration))
     checker = _checker(scn, setup)
     cands = {OPTIMUM: roadmap.nodes[plan.path]}
     if opts.refine and shortest is not None and list(shortest.path) != list(plan.path):
@@ -279,12 +282,18 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
                                                         drive.arm)):
             cands[f"alternative {k + 1}"] = roadmap.nodes[path]
     detours = frozenset(n for n in cands if n.startswith("alternative"))
+    w0, c0 = time.perf_counter(), time.process_time()
+    fixed = frozenset()
+    if opts.refine and opts.max_duration is not None:  # a cycle time: the quickest geometry
+        path = shortest.path if shortest is not None else plan.path
+        W = check_waypoints(drive, roadmap.nodes[path])
+        cands[QUICKEST] = time_shortcut(W, checker, scn.options, drive.arm.model.velocityLimit)
+        fixed = frozenset({QUICKEST})
     how = "shortcut where the energy drops, " if opts.refine else ""
     many = f"{len(cands)} candidate{'s' if len(cands) > 1 else ''}"
-    w0, c0 = time.perf_counter(), time.process_time()
     try:
         refined = refine_candidates(drive, checker, scn.options, cands, opts, optional=detours,
-                                    progress=show_progress)
+                                    progress=show_progress, fixed=fixed)
     except NoFeasibleMotion as exc:
         if opts.max_duration is None:
             raise
@@ -311,8 +320,11 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
             short_motion = None  # none within the cap: nothing to compare with
     note = f"{how}{opts.execution} execution; from the {refined.candidate} ({many})"
     series = motion_series(drive, refined.motion, scn.options.dt)
-    return RunMotion(refined.motion, series, refined, short_motion, note,
-                     fastest=fastest_duration(refined.by_name))
+    m = refined.motion
+    return RunMotion(m, series, refined, short_motion, note,
+                     fastest=float(m.fastest) if m.fastest > 0 else None,
+                     energy_duration=energy_duration_record(
+                         refined.candidate, m, refined.by_name, opts.max_duration))
 
 
 def alternative_paths(roadmap, taken: list[list[int]], count: int, arm,

@@ -40,6 +40,10 @@ where every non-finite number is ``null``) holds:
 * ``feasible`` — whether the returned motion is the answer: false when no motion runs
   within ``max_duration`` (docs/design.md §9f), ``motion`` then being the fastest one
   found and ``reason`` saying why;
+* ``energy_duration`` (docs/design.md §9c, §9d) — the energy–time fronts: of the motion
+  returned (``returned``) and of every candidate priced, per execution (``candidates``):
+  its fastest feasible duration, the velocity limits' bound, the longest duration allowed,
+  the perfect-tracking ``screen`` and the ``simulated`` points as [s, J] pairs;
 * ``verification`` (``Verification.to_dict``); ``replay`` (when written);
 * ``seconds_per_phase`` — wall-clock seconds per phase, the roadmap's sub-phases as
   ``roadmap_<name>`` and ``roadmap_total``; ``cpu_seconds_per_phase`` and
@@ -231,9 +235,10 @@ def make_figures(
                    for d in detections],
         ),
     }
-    curve = _duration_curve(motion)
-    if curve is not None:
-        figs["energy_duration.png"] = plot_energy_duration(*curve[:3], ideal=curve[3],
+    fronts = _duration_fronts(motion)
+    if fronts is not None:
+        rows, returned, cap = fronts
+        figs["energy_duration.png"] = plot_energy_duration(rows, returned, max_duration=cap,
                                                            title=scn.name + note)
     return figs
 
@@ -263,19 +268,18 @@ def write_plots(out_dir: Path, *args: Any, **kwargs: Any) -> list[str]:
     return list(figs)
 
 
-def _duration_curve(motion: RunMotion | None):
-    """(simulated non-stop points [(T, E)], stop-and-go point (T, E) or None, chosen (T, E),
-    perfect-tracking screen [(T, E)]) of a refined motion whose single non-stop piece was
+def _duration_fronts(motion: RunMotion | None):
+    """(the candidates' fronts, the motion returned, max_duration) of result.json
+    ``energy_duration``
+    for ``energy_duration.png``: a refined motion with at least one non-stop front
     searched; else None."""
-    if motion is None or motion.refined is None:
+    if motion is None or motion.refined is None or motion.energy_duration is None:
         return None
-    m = motion.energy
-    non = m if m.execution == "nonstop" else m.alternative
-    if non is None or not non.duration_curve:
+    record = motion.energy_duration
+    rows = record["candidates"]
+    if not any(r["nonstop"] is not None and r["nonstop"]["screen"] for r in rows):
         return None
-    stop = m if m.execution == "stop" else m.alternative
-    stop_pt = (stop.duration, stop.total_energy) if stop is not None and stop.feasible else None
-    return non.duration_curve, stop_pt, (m.duration, m.total_energy), non.ideal_curve
+    return rows, record["returned"], record["max_duration"]
 
 
 def write_replay_html(
@@ -440,6 +444,8 @@ def result_record(
     if motion is not None:
         record["roadmap_path"] = roadmap_path_record(setup, plan, scn.arm)
         record["motion"] = motion.record()
+        if motion.energy_duration is not None:
+            record["energy_duration"] = motion.energy_duration
         record["energy_per_joint"] = motion.energy.energy_per_joint
         record["total_energy"] = float(motion.energy.total_energy)
         record["energy_by_supply"] = motion.energy.energy_by_supply()

@@ -156,6 +156,17 @@ class Plan:
                 "nodes)")
 
     @property
+    def energy_duration(self) -> dict[str, Any]:
+        """The energy–time fronts (docs/design.md §9c), as result.json ``energy_duration``:
+        ``returned`` — the motion returned, from the candidate named ``candidate``: its
+        ``duration`` (s) and ``total_energy`` (J), ``fastest_duration`` (the fastest
+        feasible motion of its geometry), ``velocity_bound``, ``longest_duration``,
+        ``duration_rule``, ``screen`` (perfect-tracking E(T)) and ``simulated`` ([s, J]
+        pairs); ``candidates`` — per candidate priced, the same for its ``nonstop`` and
+        ``stop`` executions (None where not priced); ``max_duration`` (s or None)."""
+        return to_jsonable(self._record.get("energy_duration") or {})
+
+    @property
     def seconds(self) -> float:
         """Wall-clock seconds the query took (roadmap, search, refinement; no files)."""
         return float(self._parts.clock.wall["total"])

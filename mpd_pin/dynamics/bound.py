@@ -359,8 +359,9 @@ def _gravity_torque_bound(model: pin.Model) -> np.ndarray:
     """(nq,) upper bound of |G_k(q)| over all q (N·m, N for a prismatic joint): g · Σ over
     the bodies moved by joint k of mass × (distance from joint k to the body's centre of
     mass, bounded by the chain of joint placements plus the farthest extension of every
-    prismatic joint on the way; 1 for a prismatic joint), by the triangle inequality. For a revolute joint the placements from joint k's origin on
-    bound the distance to its axis too."""
+    prismatic joint on the way; 1 for a prismatic joint), by the triangle inequality. For a
+    revolute joint the placements from joint k's origin on bound the distance to its axis
+    too."""
     g = float(np.linalg.norm(model.gravity.linear))
     nj = model.njoints
     out = np.zeros(model.nv)

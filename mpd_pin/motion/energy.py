@@ -8,9 +8,11 @@ max(V_k i_k, 0) dt):
   (:meth:`~mpd_pin.planning.roadmap.RoadmapOptions.timing`): exactly what the roadmap
   charges for the same edges (the same batched integrator, the same durations);
 * ``"nonstop"`` — one quintic spline in time through the via points
-  (:mod:`mpd_pin.motion.spline`), simulated in one piece, its duration chosen for the least
-  energy within the velocity limits (and ``max_duration``): slow motions pay holding
-  current and friction, fast ones copper loss. Where the curve is not certified free
+  (:mod:`mpd_pin.motion.spline`), simulated in one piece and stretched uniformly, its
+  duration chosen for the least energy from its fastest feasible stretch (within the
+  velocity, effort and arrival limits, simulated: :class:`_Piece`) to the longer of 3×
+  that and the stop-and-go duration (and within ``max_duration``): slow motions pay
+  holding current and friction, fast ones copper loss. Where the curve is not certified free
   (with a ``checker``) the motion keeps a stop at the via point nearest the failure and is
   two non-stop pieces, down to single straight edges (which the stop mode certifies);
 * ``"auto"`` — both, and the cheaper feasible one is returned.
@@ -68,10 +70,14 @@ class MotionEnergy:
     limit; feasible: within both limits, arriving within the tolerance, and certified
     collision-free when a checker was given (``reason`` says why not);
     energy_by_execution: total E⁺ of each mode evaluated (None: infeasible);
-    duration_curve: (duration, E⁺) pairs the non-stop search simulated; ideal_curve: the
-    perfect-tracking (duration, E⁺) screen over its whole duration range; fastest: the
-    shortest duration the execution allows (s: stop-and-go, the roadmap timing; non-stop,
-    the velocity limits).
+    duration_curve: (duration, E⁺) pairs the non-stop search simulated and found feasible
+    within its duration range (all it simulated when none was); ideal_curve: the
+    perfect-tracking (duration, E⁺) screen over that range; fastest: the shortest duration
+    of a feasible motion of this execution and geometry (s: stop-and-go, the roadmap
+    timing; non-stop, the fastest uniform stretch of each piece's spline that is simulated
+    within the effort, velocity and arrival limits, docs/design.md §9c; timed, its own);
+    velocity_fastest: the velocity limits' bound alone (s); longest: the end of the
+    duration range searched (s); duration_rule: how the duration was chosen.
     """
 
     execution: str
@@ -91,8 +97,14 @@ class MotionEnergy:
     duration_curve: list[tuple[float, float]] = field(default_factory=list)
     ideal_curve: list[tuple[float, float]] = field(default_factory=list)
     alternative: MotionEnergy | None = None
-    #: the shortest duration this execution allows for these waypoints (s)
+    #: the shortest duration of a feasible motion of this execution and geometry (s)
     fastest: float = 0.0
+    #: the shortest duration the velocity limits alone allow (s; ≤ ``fastest``)
+    velocity_fastest: float = 0.0
+    #: the longest duration the search allowed (s; the end of the energy–time front)
+    longest: float = 0.0
+    #: how the duration was chosen (result.json ``motion.duration_rule``)
+    duration_rule: str = ""
     #: a straight segment between the waypoints failed the certified check
     colliding: bool = False
     #: [B⁺, B⁻] of the shared bus over the motion (J, docs/design.md §3i)
@@ -108,8 +120,9 @@ class MotionEnergy:
 
     @property
     def fastest_duration(self) -> float:
-        """``fastest`` (s): the shortest duration this execution allows these waypoints
-        (the velocity limits' bound; the effort limits may need longer)."""
+        """``fastest`` (s): the shortest duration of a feasible motion of this execution
+        and geometry — for non-stop pieces the fastest uniform stretch within the velocity,
+        effort and arrival limits, simulated (docs/design.md §9c)."""
         return float(self.fastest)
 
     def energy_by_supply(self) -> dict[str, float]:
@@ -228,7 +241,9 @@ def _stop(drive: Drive, W: np.ndarray, dt: float, options, checker, effort_on: b
     colliding = checker is not None and not free.all()
     return MotionEnergy("stop", W, energy, total, float(T.sum()), err, vel, eff,
                         not reasons, m - 1, [(i, i + 1) for i in range(m)], T,
-                        "; ".join(reasons), fastest=float(T.sum()), colliding=colliding,
+                        "; ".join(reasons), fastest=float(T.sum()),
+                        velocity_fastest=float(T.sum()), longest=float(T.sum()),
+                        duration_rule=STOP_RULE, colliding=colliding,
                         bus_energy=bus, supply=drive.supply)
 
 
@@ -278,63 +293,258 @@ def _fastest(vs: ViaSpline, vlim: np.ndarray, options, dt: float) -> float:
     return float(_snap(max(ratio * vs.unit_duration, options.min_duration), dt))
 
 
-def _piece(drive: Drive, W: np.ndarray, dt: float, options, t_max: float | None,
-           effort_on: bool, t_budget: float = 0.0):
-    """Best duration of one non-stop piece through ``W``: (spline, duration, outcome row
-    dict, curve); outcome None when no duration is feasible. Durations from the fastest
-    the velocity limits allow to the longer of :data:`STRETCH` times that and ``t_budget``
-    (s, the stop-and-go duration of the same waypoints), capped by ``t_max``."""
-    vlim, elim = _limits(drive)
-    vs = via_spline(W, unit_knots(W, vlim))
-    ratio = vs.peak_speed_ratio(vlim) * 1.002 if options.velocity_limits else 0.0
-    t_lo = _fastest(vs, vlim, options, dt)
-    t_hi = max(STRETCH * t_lo, t_lo + 4 * dt, t_budget)
-    if t_max is not None:
-        t_hi = min(t_hi, t_max)
-        if t_hi < t_lo - 1e-12:
-            return vs, t_lo, None, []
-    curve: list[tuple[float, float]] = []
-    rows: dict[float, dict] = {}
+#: The fastest feasible stretch of a non-stop piece is found to this share of its duration
+#: (or one RK4 step, whichever is more): simulated feasible there, infeasible that much
+#: shorter (docs/design.md §9c).
+FASTEST_TOLERANCE = 0.005
 
-    def run(Ts: np.ndarray) -> None:
-        Ts = np.unique(_snap(Ts, dt))
-        Ts = Ts[[float(x) not in rows for x in Ts]]
+#: Rounds of simulations (each of at most 3 durations) the fastest-stretch search may take.
+FASTEST_ROUNDS = 10
+
+#: Points (at unit stretch) at which :func:`effort_bound` evaluates the torque.
+EFFORT_SAMPLES = 4000
+
+#: How a non-stop piece's duration is chosen (result.json ``motion.duration_rule``), and a
+#: stop-and-go motion's.
+NONSTOP_RULE = "least simulated energy over [fastest, max(3 × fastest, stop-and-go duration)]"
+CAPPED_RULE = "least simulated energy over [fastest, max_duration]"
+STOP_RULE = "roadmap timing (stop-and-go: each segment timed by the roadmap's duration rule)"
+
+
+def effort_bound(drive: Drive, vs: ViaSpline, samples: int = EFFORT_SAMPLES) -> float:
+    """The shortest duration (s) at which the perfect-tracking torque of the spline ``vs``,
+    stretched uniformly, stays within the effort limits at ``samples`` points of its path
+    (docs/design.md §9c); 0 without finite limits, inf when holding the arm still exceeds
+    one.
+
+    Stretched to T, with s = t_m/T, the feed-forward torque at a point of the path is
+    τ(s) = a s² + b s + g: g = RNEA(q, 0, 0) holds the arm, a = RNEA(q, q', q'') − g is the
+    inertial and Coriolis part (q', q'' per unit time, the armature in the model), b = n²B q'
+    the viscous part. |τ_k(s)| ≤ τ_lim,k holds from s = 0 up to the first positive root of
+    τ_k(s) = ±τ_lim,k; the least root over points and joints is s*, and t_m/s* the bound."""
+    _, elim = _limits(drive)
+    cols = np.isfinite(elim)
+    if not cols.any():
+        return 0.0
+    tau = np.linspace(0.0, vs.unit_duration, samples)
+    q, d1, d2 = (vs.spline(tau, nu)[:, None, :] for nu in range(3))
+    zero = np.zeros_like(q)
+    kt = drive.torque_per_amp
+    _, i_hold = feedforward_tables(drive, q, zero, zero, zero)
+    _, i_move = feedforward_tables(drive, q, d1, d2, zero)
+    g = (i_hold[:, 0] * kt)[:, cols]
+    b = (drive.damping * d1[:, 0])[:, cols]
+    a = (i_move[:, 0] * kt)[:, cols] - g - b
+    L = elim[cols]
+    if np.any(np.abs(g) > L):
+        return float("inf")
+    s_star = np.inf
+    for c in (g - L, g + L):  # τ = +τ_lim and τ = −τ_lim
+        disc = b * b - 4.0 * a * c
+        real = disc >= 0.0
+        root = np.sqrt(np.where(real, disc, 0.0))
+        # the two roots of a s² + b s + c without cancellation: p/a and c/p
+        p = -0.5 * (b + np.where(b >= 0.0, root, -root))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for r in (p / a, c / p):
+                r = np.where(real & np.isfinite(r) & (r > 0.0), r, np.inf)
+                s_star = min(s_star, float(r.min()))
+    return 0.0 if not np.isfinite(s_star) else float(vs.unit_duration / s_star)
+
+
+class _Piece:
+    """One non-stop piece (docs/design.md §9c): its spline stretched uniformly, the bounds
+    on its duration, and every duration simulated (``rows``, by duration on the dt grid)."""
+
+    def __init__(self, drive: Drive, vs: ViaSpline, dt: float, options, effort_on: bool):
+        self.drive, self.vs, self.dt = drive, vs, float(dt)
+        self.options, self.effort_on = options, bool(effort_on)
+        vlim, self.elim = _limits(drive)
+        self.ratio = vs.peak_speed_ratio(vlim) * 1.002 if options.velocity_limits else 0.0
+        #: the velocity limits' bound (s, on the dt grid, not below min_duration)
+        self.t_velocity = float(_snap(max(self.ratio * vs.unit_duration,
+                                          options.min_duration), dt))
+        #: the perfect-tracking effort bound (s, :func:`effort_bound`; 0 without limits)
+        self.t_effort = effort_bound(drive, vs) if effort_on else 0.0
+        self.rows: dict[float, dict] = {}
+        #: the duration range of the last search (s), and its end without max_duration
+        self.lo = self.hi = self.rule_hi = self.t_velocity
+        self.ideal: list[tuple[float, float]] = []
+        self._fastest: float | None = None
+        self._searched = False
+
+    @property
+    def bound(self) -> float:
+        """The perfect-tracking lower bound (s): the larger of the velocity and effort
+        bounds (the velocity bound where holding the arm exceeds an effort limit)."""
+        te = self.t_effort if math.isfinite(self.t_effort) else 0.0
+        return float(_snap(max(self.t_velocity, te), self.dt))
+
+    def run(self, Ts) -> None:
+        """Simulate the durations ``Ts`` (s, snapped to the dt grid) not simulated yet."""
+        Ts = np.unique(_snap(Ts, self.dt))
+        Ts = Ts[[float(x) not in self.rows for x in Ts]]
         if not Ts.size:
             return
-        out = _simulate_nonstop(drive, vs, Ts, dt)
-        E, _, err, _, peak, B = out
+        drive, options = self.drive, self.options
+        E, _, err, _, peak, B = _simulate_nonstop(drive, self.vs, Ts, self.dt)
         for k, T in enumerate(Ts.tolist()):
-            eff = float(np.max(peak[k] / elim))
+            eff = float(np.max(peak[k] / self.elim))
             e = float(np.max(np.abs(err[k])))
-            ok = (not effort_on or eff <= 1.0 + 1e-12) and e <= options.arrival_tolerance
+            ok = (not self.effort_on or eff <= 1.0 + 1e-12) and e <= options.arrival_tolerance
             total = float(supply_energy(drive.supply, E[k], B[k]))
-            rows[T] = {"energy": E[k].copy(), "bus": B[k].copy(), "total": total,
-                       "end_error": e, "effort": eff, "ok": ok,
-                       "velocity": ratio / 1.002 * vs.unit_duration / T}
-            curve.append((T, total))
+            self.rows[T] = {"energy": E[k].copy(), "bus": B[k].copy(), "total": total,
+                            "end_error": e, "effort": eff, "ok": ok,
+                            "velocity": self.ratio / 1.002 * self.vs.unit_duration / T}
 
-    # Screen the durations by perfect-tracking energy (no simulation), simulate the best
-    # one and its neighbours in one batch; the whole grid only if none of them is feasible.
-    grid = np.unique(_snap(np.geomspace(t_lo, t_hi, SCREEN_GRID) if t_hi > t_lo
-                           else np.array([t_lo]), dt))
-    grid = grid[grid <= max(t_hi, t_lo) + 1e-9]
-    e_ideal, peak_ideal = ideal_nonstop(drive, vs, grid)
-    fits = ~effort_on | np.all(peak_ideal <= elim, axis=1)
-    order = np.argsort(np.where(fits, e_ideal, np.inf))
-    run(grid[order[:1]])  # the screen's best
-    if not any(r["ok"] for r in rows.values()):  # then its neighbours, then the whole grid
-        i = int(order[0])
-        run(grid[max(i - 1, 0): i + 2])
-    if not any(r["ok"] for r in rows.values()):
-        run(grid)
-    ok = [T for T in rows if rows[T]["ok"]]
-    curve.sort()
-    ideal = _ideal_curve(grid, e_ideal)
-    if not ok:
-        worst = rows[max(rows)]
-        return vs, max(rows), dict(worst, ok=False, ideal=ideal), curve
-    best = min(ok, key=lambda T: rows[T]["total"])
-    return vs, best, dict(rows[best], ideal=ideal), curve
+    def _violation(self, T: float) -> float:
+        """How far the simulation at T is from feasible: the larger of its effort ratio
+        (when enforced) and its end error over the arrival tolerance (≤ 1: feasible)."""
+        r = self.rows[T]
+        v = r["end_error"] / self.options.arrival_tolerance
+        return max(v, r["effort"]) if self.effort_on else v
+
+    def _guess(self, lo: float | None, hi: float | None) -> float:
+        """Where the violation crosses 1 (s): log-linear in log T between the infeasible
+        ``lo`` and the feasible ``hi``, else from the one given (violation ∝ T⁻²)."""
+        if lo is not None and hi is not None:
+            vl, vh = self._violation(lo), self._violation(hi)
+            if vl > 1.0 and vh > 0.0 and vl > vh:
+                f = math.log(vl) / (math.log(vl) - math.log(vh))
+                return math.exp(math.log(lo) + f * (math.log(hi) - math.log(lo)))
+            return 0.5 * (lo + hi)
+        T = hi if hi is not None else lo
+        v = self._violation(T)
+        return T * math.sqrt(v) if v > 0.0 else T
+
+    def fastest(self) -> float | None:
+        """The fastest uniform stretch (s, on the dt grid) that is simulated feasible, to
+        :data:`FASTEST_TOLERANCE` (infeasible that much shorter, or it is the velocity
+        bound); None when none is found up to :data:`STRETCH` times the bound. Starts at
+        :attr:`bound` and moves by the violation of the durations simulated."""
+        if self._searched:
+            return self._fastest
+        self._searched = True
+        if not math.isfinite(self.t_effort):
+            return None  # holding the arm still exceeds an effort limit
+        t_v, t0 = self.t_velocity, self.bound
+        self.run([t0])
+        for _ in range(FASTEST_ROUNDS):
+            ok = sorted(T for T, r in self.rows.items() if r["ok"])
+            if not ok:  # longer: from the longest infeasible one
+                top = max(self.rows)
+                if top >= STRETCH * t0:
+                    break
+                tol = max(FASTEST_TOLERANCE * top, self.dt)
+                T = min(max(self._guess(top, None), top + tol), 1.5 * top)
+                props = [T, T + 2 * tol]
+            else:
+                hi = ok[0]
+                if hi <= t_v + 1e-9:
+                    break  # the velocity limits bind
+                tol = max(FASTEST_TOLERANCE * hi, self.dt)
+                below = [T for T, r in self.rows.items() if not r["ok"] and T < hi]
+                lo = max(below) if below else None
+                if lo is not None and hi - lo <= tol + 1e-9:
+                    break
+                T = self._guess(lo, hi)
+                if lo is None:  # shorter: from the shortest feasible one
+                    T = max(min(T, hi - tol), 0.7 * hi)
+                    props = [T - tol / 2, T + tol / 2]
+                else:
+                    T = min(max(T, lo + tol / 2), hi - tol / 2)
+                    props = [T - tol / 2, T + tol / 2]
+            props = np.maximum(_snap(props, self.dt), t_v)
+            props = [float(x) for x in np.unique(props) if float(x) not in self.rows]
+            if not props:
+                ok = sorted(T for T, r in self.rows.items() if r["ok"])
+                below = [T for T, r in self.rows.items()
+                         if not r["ok"] and ok and T < ok[0]]
+                if not ok or not below:
+                    break
+                mid = float(_snap(0.5 * (max(below) + ok[0]), self.dt))
+                if mid in self.rows:
+                    break
+                props = [mid]
+            self.run(props)
+        ok = [T for T, r in self.rows.items() if r["ok"]]
+        self._fastest = min(ok) if ok else None
+        return self._fastest
+
+    def lower(self) -> float:
+        """The shortest duration searched (s): :meth:`fastest`, or :attr:`bound` when no
+        stretch is feasible."""
+        fast = self.fastest()
+        return self.bound if fast is None else fast
+
+    def search(self, t_max: float | None, t_budget: float = 0.0) -> tuple[float, dict | None]:
+        """Best duration (s) and its outcome row (None when ``t_max`` is below the
+        fastest; ``ok`` False when no duration is feasible). Durations from the fastest
+        feasible stretch to the longer of :data:`STRETCH` times that and ``t_budget`` (s,
+        the stop-and-go duration of the same waypoints), capped by ``t_max``: screened by
+        perfect-tracking energy, the best simulated, its neighbours only if it is not
+        feasible, the whole grid only if none of them is."""
+        dt, rows = self.dt, self.rows
+        t_lo = self.lower()
+        t_hi = self.rule_hi = max(STRETCH * t_lo, t_lo + 4 * dt, t_budget)
+        if t_max is not None:
+            t_hi = min(t_hi, t_max)
+        self.lo, self.hi = t_lo, max(t_hi, t_lo)
+        if t_hi < t_lo - 1e-12:
+            self.hi, self.ideal = t_lo, []
+            return t_lo, None
+        grid = _snap(np.geomspace(t_lo, t_hi, SCREEN_GRID) if t_hi > t_lo
+                     else np.array([t_lo]), dt)
+        # with the durations simulated already (the fastest stretch's search), so that the
+        # screen has a value at every simulated point of the range
+        grid = np.unique(np.concatenate([grid, [T for T in rows
+                                                if t_lo - 1e-9 <= T <= t_hi + 1e-9]]))
+        grid = grid[grid <= max(t_hi, t_lo) + 1e-9]
+        e_ideal, peak_ideal = ideal_nonstop(self.drive, self.vs, grid)
+        fits = (np.all(peak_ideal <= self.elim, axis=1) if self.effort_on
+                else np.ones(grid.size, dtype=bool))
+        fits |= np.array([rows.get(float(T), {}).get("ok", False) for T in grid])
+        order = np.argsort(np.where(fits, e_ideal, np.inf), kind="stable")
+
+        def found() -> bool:
+            return any(r["ok"] and T <= t_hi + 1e-9 for T, r in rows.items())
+
+        self.run(grid[order[:1]])  # the screen's best
+        if not found():  # then its neighbours, then the whole grid
+            i = int(order[0])
+            self.run(grid[max(i - 1, 0): i + 2])
+        if not found():
+            self.run(grid)
+        self.ideal = _ideal_curve(grid, e_ideal)
+        ok = [T for T, r in rows.items() if r["ok"] and t_lo - 1e-9 <= T <= t_hi + 1e-9]
+        if not ok:
+            inside = [T for T in rows if T <= t_hi + 1e-9] or list(rows)
+            T = max(inside)
+            return T, dict(rows[T], ok=False)
+        best = min(ok, key=lambda T: rows[T]["total"])
+        return best, dict(rows[best])
+
+    def simulated(self) -> list[tuple[float, float]]:
+        """(duration, E⁺) of the feasible durations simulated within the last search's
+        range, sorted; all durations simulated when none is feasible."""
+        ok = sorted((T, r["total"]) for T, r in self.rows.items()
+                    if r["ok"] and self.lo - 1e-9 <= T <= self.hi + 1e-9)
+        return ok or sorted((T, r["total"]) for T, r in self.rows.items())
+
+
+def stretch_front(drive: Drive, vs: ViaSpline, options, longest: float, *,
+                  points: int = 4, include: tuple[float, ...] = ()) -> _Piece:
+    """The energy–time front of the one-piece curve ``vs`` stretched uniformly (docs/design.md
+    §9c): its fastest feasible stretch, the perfect-tracking screen from there to
+    ``longest`` (s) and ``points`` simulated durations (geometric) plus ``include`` (s).
+    Returns the :class:`_Piece` (``lower()``, ``t_velocity``, ``ideal``, ``simulated()``)."""
+    p = _Piece(drive, vs, float(options.dt), options, bool(options.effort_limits))
+    t_lo = p.lower()
+    hi = max(float(longest), t_lo, *include)
+    p.run(np.concatenate([np.geomspace(t_lo, hi, points) if hi > t_lo else [t_lo],
+                          np.asarray(include, dtype=float)]))
+    p.search(hi, hi)  # the screen over [fastest, hi], at the points simulated too
+    return p
 
 
 def _ideal_curve(grid: np.ndarray, energy: np.ndarray) -> list[tuple[float, float]]:
@@ -426,17 +636,17 @@ def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_durat
         parts = _certified_pieces(W, checker, options.resolution, vlim)
     energy = np.zeros(drive.nq)
     bus = np.zeros(2)
-    durations, curve, reasons, ideal = [], [], [], []
-    err = vel = eff = fastest = 0.0
-    quick = [_fastest(via_spline(W[i : j + 1], unit_knots(W[i : j + 1], vlim)), vlim, options,
-                      dt) for i, j in parts]
-    for (i, j), t_fast in zip(parts, quick, strict=True):
+    durations, reasons = [], []
+    err = vel = eff = 0.0
+    runs = [_Piece(drive, via_spline(W[i : j + 1], unit_knots(W[i : j + 1], vlim)), dt,
+                   options, effort_on) for i, j in parts]
+    lows = [p.lower() for p in runs]  # each piece's fastest feasible stretch (s)
+    for (i, j), p, low in zip(parts, runs, lows, strict=True):
         share = None
         if max_duration is not None:  # each piece's share: in proportion to its fastest
-            share = max_duration * t_fast / sum(quick)
+            share = max_duration * low / sum(lows)
         budget = 0.0 if stop is None else float(np.sum(stop.piece_durations[i:j]))
-        vs, T, row, cv = _piece(drive, W[i : j + 1], dt, options, share, effort_on, budget)
-        fastest += _fastest(vs, vlim, options, dt)
+        T, row = p.search(share, budget)
         if row is None:
             reasons.append(f"no duration within max_duration (the fastest piece {i}–{j} "
                            f"needs {T:.3f} s)")
@@ -450,16 +660,54 @@ def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_durat
         durations.append(T)
         err, vel, eff = max(err, row["end_error"]), max(vel, row["velocity"]), max(
             eff, row["effort"])
-        if len(parts) == 1:
-            curve, ideal = cv, row["ideal"]
     if stop is not None and stop.colliding:
         reasons.append(stop.reason)
     stops = len(parts) - 1
     total = float(supply_energy(drive.supply, energy, bus))
+    feasible = not reasons
+    if len(runs) == 1:
+        curve, ideal = runs[0].simulated(), runs[0].ideal
+    else:  # the screen of the pieces at shares of a total, the motion itself simulated
+        ideal = _split_screen(drive, runs, lows)
+        curve = [(float(np.sum(durations)), total)] if feasible else []
     return MotionEnergy("nonstop", W, energy, total, float(np.sum(durations)),
-                        err, vel, eff, not reasons, stops, parts, np.asarray(durations),
+                        err, vel, eff, feasible, stops, parts, np.asarray(durations),
                         "; ".join(reasons), duration_curve=curve, ideal_curve=ideal,
-                        fastest=fastest, bus_energy=bus, supply=drive.supply)
+                        fastest=float(sum(lows)),
+                        velocity_fastest=float(sum(p.t_velocity for p in runs)),
+                        longest=float(sum(p.hi for p in runs)),
+                        duration_rule=_nonstop_rule(runs, max_duration),
+                        bus_energy=bus, supply=drive.supply)
+
+
+def _nonstop_rule(runs: list[_Piece], max_duration: float | None) -> str:
+    """``duration_rule`` of a non-stop motion whose pieces were searched as ``runs``."""
+    capped = max_duration is not None and any(p.hi < p.rule_hi - 1e-9 for p in runs)
+    rule = CAPPED_RULE if capped else NONSTOP_RULE
+    if max_duration is not None and not capped:
+        rule += " (max_duration not reached)"
+    if len(runs) > 1:
+        rule += (f", per piece between the {len(runs) - 1} stops (max_duration shared in "
+                 "proportion to the pieces' fastest durations)")
+    return rule
+
+
+def _split_screen(drive: Drive, runs: list[_Piece], lows: list[float]
+                  ) -> list[tuple[float, float]]:
+    """The perfect-tracking screen (duration, E) of a motion of several non-stop pieces,
+    each at its share of the total (in proportion to its fastest, as ``max_duration`` is
+    shared), from the sum of their fastest to the sum of their longest durations."""
+    lo, hi = float(sum(lows)), float(sum(p.hi for p in runs))
+    grid = np.geomspace(lo, hi, SCREEN_GRID) if hi > lo else np.array([lo])
+    total = np.zeros(grid.size)
+    parts = []
+    for p, low in zip(runs, lows, strict=True):  # shares rounded down to the dt grid
+        T = np.maximum(np.floor(grid * low / lo / p.dt + 1e-9) * p.dt, low)
+        e, _ = ideal_nonstop(drive, p.vs, T)
+        parts.append(T)
+        total += e
+    durations = np.sum(parts, axis=0)
+    return _ideal_curve(durations, total)
 
 
 # ----------------------------------------------------------------------------- public
@@ -480,7 +728,8 @@ def trajectory_energy(
     ``execution``: "stop" (rest-to-rest quintic edges timed by the roadmap rule of
     ``options``, a :class:`~mpd_pin.planning.roadmap.RoadmapOptions`; the roadmap's own
     edge energies), "nonstop" (one quintic spline in time through the via points, its
-    duration (s) chosen for the least E⁺ within the velocity limits and ``max_duration``),
+    duration (s) chosen for the least E⁺ from its fastest feasible stretch, within
+    ``max_duration``; docs/design.md §9c),
     or "auto" (both; the cheaper feasible one, the other in ``.alternative``). ``dt``: RK4
     step (s; default ``options.dt``). With a collision ``checker`` the motion is certified
     free (straight edges for stop; the spline's curve for non-stop, which keeps a stop

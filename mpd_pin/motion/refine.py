@@ -153,6 +153,7 @@ def refine_candidates(
     motion: MotionOptions | None = None,
     optional: frozenset[str] = frozenset(),
     progress: bool = False,
+    fixed: frozenset[str] = frozenset(),
 ) -> RefinedMotion:
     """The cheapest feasible motion over ``candidates`` (name → certified waypoints (m+1, nq)
     rad, in order of preference on ties) under ``motion``; ``options``: the roadmap's
@@ -162,6 +163,8 @@ def refine_candidates(
     than :data:`PRUNE` times the best shortcut before them. ValueError when no candidate
     gives a feasible motion (its reasons in the message). ``progress``: a "refinement"
     bar over the candidates on stderr, naming the candidate and the step under way.
+    Candidates named in ``fixed`` are priced as given, without the energy refinement (the
+    shortest path shortcut for time, a candidate for a cycle time: docs/design.md §9f).
 
     With a supply other than the paper's (docs/design.md §3i) every candidate is refined
     twice: for the energy drawn from that supply, and for the per-joint E⁺ (named
@@ -179,7 +182,7 @@ def refine_candidates(
     if motion.refine and not drive.supply.is_default:
         per_joint = dataclasses.replace(drive, supply=PER_JOINT)
         jobs += [(f"{name} (refined per joint)", W, per_joint, "per_joint")
-                 for name, W in candidates.items()]
+                 for name, W in candidates.items() if name not in fixed]
         optional = optional | {f"{n} (refined per joint)" for n in optional}
     with progress_bar(len(jobs), "refinement", unit="candidate", enabled=progress,
                       iterable=jobs) as shown:
@@ -188,7 +191,7 @@ def refine_candidates(
             rec: dict[str, Any] = {"name": name, "waypoints_in": int(W.shape[0])}
             if objective != "supply":
                 rec["objective"] = objective
-            if motion.refine and W.shape[0] > 2:
+            if motion.refine and W.shape[0] > 2 and name not in fixed:
                 bar = np.inf
                 if name in optional:  # against the best shortcut of the same objective
                     done = [r["stop_energy_shortcut"] for r in records
@@ -228,7 +231,7 @@ def refine_candidates(
                                motions=by_name, candidates=records)
     best = min(feasible, key=lambda n: by_name[n].total_energy)
     optimization = None
-    if motion.optimize:
+    if motion.optimize and motion.execution != "stop":  # an optimum runs non-stop (§9g)
         with progress_bar(min(len(feasible), motion.seeds), "optimisation", unit="seed",
                           enabled=progress) as shown:
             best, optimization = _optimize_best(drive, checker, options, motion, by_name,
@@ -237,8 +240,8 @@ def refine_candidates(
                          time.process_time() - c0, by_name, optimization)
 
 
-#: Candidates costing more than this factor times the cheapest seed no optimisation (each
-#: costs ~0.5–3 CPU-s; measured on Panda and UR5 queries, such seeds never won).
+#: Candidates costing more than this factor times the cheapest seed no optimisation: each
+#: costs 0.5–4 CPU-s (bench/optimize.py), and the budget goes to the likelier winners.
 SEED_FACTOR = 1.4
 
 #: Name of the optimised motion in ``RefinedMotion.by_name`` (its seed is named apart).
@@ -280,9 +283,31 @@ def _optimize_best(drive: Drive, checker: Any, options: Any, motion: MotionOptio
         return best, rec
     name, m = winner
     m.alternative = by_name[name]
+    _stretch_front(drive, options, motion, m, by_name[name], name)
     by_name[OPTIMIZED] = m
     run = next(r for r in runs if r["seed"] == name)
     rec.update(kept_seed=False, seed=name, energy_before=by_name[name].total_energy,
                energy_after=m.total_energy, iterations=run["iterations"],
                certified=run["certified"])
     return OPTIMIZED, rec
+
+
+def _stretch_front(drive: Drive, options: Any, motion: MotionOptions, m: MotionEnergy,
+                   seed: MotionEnergy, name: str) -> None:
+    """Give the optimised motion ``m`` its own energy–time front (docs/design.md §9c): the
+    fastest feasible stretch of its curve, the screen from there to the longer of its
+    duration and its seed's longest (within ``max_duration``), and 4 durations simulated
+    besides its own; and its duration rule (its seed's duration)."""
+    from .energy import stretch_front
+
+    longest = max(float(seed.longest or seed.duration), float(m.duration))
+    if motion.max_duration is not None:
+        longest = max(min(longest, float(motion.max_duration)), float(m.duration))
+    p = stretch_front(drive, m.curve, options, longest, include=(float(m.duration),))
+    m.fastest = float(min(p.lower(), m.duration))
+    m.velocity_fastest = float(p.t_velocity)
+    m.longest = float(p.hi)
+    m.ideal_curve = list(p.ideal)
+    m.duration_curve = p.simulated()
+    m.duration_rule = (f"the duration of its seed, the {name} ({seed.execution}: "
+                       f"{seed.duration_rule or 'its own timing'}), optimised at that duration")

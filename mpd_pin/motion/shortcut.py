@@ -33,7 +33,7 @@ import numpy as np
 from ..dynamics.motor import Drive
 from ..dynamics.supply import PER_JOINT, Supply, supply_energy, supply_power
 
-__all__ = ["ShortcutResult", "densify", "shortcut_path"]
+__all__ = ["ShortcutResult", "densify", "shortcut_path", "time_shortcut"]
 
 
 @dataclass
@@ -258,3 +258,72 @@ def shortcut_path(
             break
     return ShortcutResult(current[0], current[1], initial, rounds, checked, simulated,
                           current[2], drive.supply)
+
+
+def _dag_shortest(n: int, I: np.ndarray, J: np.ndarray, cost: np.ndarray) -> list[int]:
+    """The cheapest increasing index sequence 0 → n−1 over the edges (I[e] < J[e], listed
+    in ``np.triu_indices`` order, cost[e]); ValueError when none is finite."""
+    dist = np.full(n, np.inf)
+    dist[0] = 0.0
+    prev = np.full(n, -1)
+    start = 0
+    for i in range(n - 1):
+        stop = start + (n - 1 - i)  # the edges from i: a block in triu order
+        if np.isfinite(dist[i]):
+            j, c = J[start:stop], dist[i] + cost[start:stop]
+            better = c < dist[j]
+            dist[j[better]] = c[better]
+            prev[j[better]] = i
+        start = stop
+    if not np.isfinite(dist[-1]):
+        raise ValueError("no certified sequence through the path's own segments")
+    seq = [n - 1]
+    while seq[-1] != 0:
+        seq.append(int(prev[seq[-1]]))
+    return seq[::-1]
+
+
+def time_shortcut(waypoints: np.ndarray, checker, options, velocity_limit: np.ndarray, *,
+                  interior: int = 3, max_rounds: int = 3, tol: float = 1e-3) -> np.ndarray:
+    """Shorten a certified-free path (``waypoints`` (m+1, nq) rad) for time, not energy
+    (docs/design.md §9f): a round densifies it as :func:`shortcut_path` does and keeps the
+    subsequence whose straight segments need the least time at the velocity limits,
+    Σ max_k |Δq_k| / v_lim,k (s; the knot spacing of the non-stop spline, §9b; joints
+    without a finite limit count at 1 rad/s), certifying the segments of each answer
+    lazily (``checker.edges_free`` at ``options.resolution``; a failing one leaves) until
+    it is certified throughout. Rounds repeat while that time falls by more than ``tol``
+    (relative). Nothing is simulated: the result is a candidate for a cycle time, priced
+    afterwards like every other."""
+    vl = np.asarray(velocity_limit, dtype=float)
+    vl = np.where(np.isfinite(vl) & (vl > 0), vl, 1.0)
+    W = np.asarray(waypoints, dtype=float)
+
+    def seconds(Q: np.ndarray) -> float:
+        return float(np.sum(np.max(np.abs(np.diff(Q, axis=0)) / vl, axis=1)))
+
+    if checker is None or W.shape[0] < 3:
+        return W
+    for _ in range(max_rounds):
+        P, _ = densify(W, interior)
+        n = P.shape[0]
+        I, J = np.triu_indices(n, 1)
+        # + 1 ms per segment (unit_knots' floor): of collinear points, the fewest
+        cost = np.max(np.abs(P[J] - P[I]) / vl, axis=1) + 1e-3
+        tried = J == I + 1  # sub-segments of the certified path
+        index = {(int(i), int(j)): e for e, (i, j) in enumerate(zip(I, J, strict=True))}
+        while True:
+            seq = _dag_shortest(n, I, J, cost)
+            e = np.array([index[(a, b)] for a, b in zip(seq[:-1], seq[1:], strict=True)])
+            unc = e[~tried[e]]
+            if not unc.size:
+                break
+            ok = checker.edges_free(P[I[unc]], P[J[unc]], options.resolution)
+            tried[unc] = True
+            cost[unc[~ok]] = np.inf
+        new = P[seq]
+        if seconds(new) >= seconds(W) * (1.0 - tol):
+            break
+        W = new
+        if W.shape[0] == 2:
+            break
+    return W

@@ -619,36 +619,75 @@ def plot_cumulative_energy(
     return fig
 
 
+#: Colours of the candidates' fronts in ``energy_duration.png`` (cycled).
+FRONT_COLORS = ("#1d3557", "#e76f51", "#2a9d8f", "#8338ec", "#f4a261", "#6c757d")
+
+
 def plot_energy_duration(
-    curve: Sequence[tuple[float, float]],
-    stop: tuple[float, float] | None,
-    chosen: tuple[float, float],
+    candidates: Sequence[dict],
+    returned: dict,
     *,
-    ideal: Sequence[tuple[float, float]] = (),
+    max_duration: float | None = None,
     title: str = "",
 ):
-    """E⁺ (J) of the non-stop motion against its total duration (s) (docs/design.md §9c):
-    the perfect-tracking screen over the whole range (``ideal``), the durations simulated
-    (``curve``), the stop-and-go motion of the same waypoints (roadmap timing) and the
-    motion returned."""
+    """E⁺ (J) against the total duration (s) of every candidate (docs/design.md §9c):
+    ``candidates`` and ``returned`` as result.json ``energy_duration`` has them. Per
+    candidate (one colour) its non-stop front — the perfect-tracking screen (a line, no
+    simulation) from its fastest feasible duration to the longest allowed, and the
+    durations simulated (dots) — and its stop-and-go motion (a square, the roadmap
+    timing); the motion returned is a hollow star over its point, ``max_duration`` a dashed
+    line. Lines and markers carry a ``gid``: ``screen:NAME``, ``simulated:NAME``,
+    ``stop:NAME``, ``returned``, ``max_duration``."""
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
-    T = np.array([c[0] for c in curve])
-    E = np.array([c[1] for c in curve])
-    order = np.argsort(T)
-    fig, ax = plt.subplots(figsize=(6, 4))
-    if len(ideal):
-        Ti, Ei = np.array(ideal).T
-        ax.plot(Ti, Ei, "-", color="#8d99ae", label="non-stop, perfect tracking (screen)")
-    ax.plot(T[order], E[order], "o", color="#1d3557", label="non-stop, simulated")
-    if stop is not None:
-        ax.plot([stop[0]], [stop[1]], "s", color="#e76f51", ms=9,
-                label=f"stop-and-go (roadmap timing): {stop[1]:.4g} J, {stop[0]:.3g} s")
-    ax.plot([chosen[0]], [chosen[1]], "*", color="#2a9d8f", ms=16,
-            label=f"returned: {chosen[1]:.4g} J, {chosen[0]:.3g} s")
+    fig, ax = plt.subplots(figsize=(7, 4.6))
+    handles = []
+    for k, row in enumerate(candidates):
+        color = FRONT_COLORS[k % len(FRONT_COLORS)]
+        name = row["name"]
+        shown = False
+        non = row.get("nonstop")
+        if non is not None and non["screen"]:
+            T, E = np.array(non["screen"], dtype=float).T
+            ax.plot(T, E, "-", color=color, lw=1.6, alpha=0.8, gid=f"screen:{name}",
+                    zorder=2)
+            shown = True
+        if non is not None and non["simulated"]:
+            T, E = np.array(non["simulated"], dtype=float).T
+            ax.plot(T, E, "o", color=color, ms=7, mec="white", mew=1.0,
+                    gid=f"simulated:{name}", zorder=4)
+            shown = True
+        stop = row.get("stop")
+        if stop is not None and stop["feasible"]:
+            ax.plot([stop["duration"]], [stop["total_energy"]], "s", color=color, ms=8,
+                    mec="white", mew=1.0, gid=f"stop:{name}", zorder=4)
+            shown = True
+        if shown:
+            handles.append(Line2D([], [], color=color, marker="o", lw=1.6,
+                                  label=name + (" (returned)" if row.get("returned") else "")))
+    if max_duration is not None:
+        ax.axvline(float(max_duration), color="#6c757d", ls="--", lw=1.2, gid="max_duration",
+                   zorder=1)
+        handles.append(Line2D([], [], color="#6c757d", ls="--",
+                              label=f"max_duration {max_duration:g} s"))
+    ax.plot([returned["duration"]], [returned["total_energy"]], "*", ms=20, mfc="none",
+            mec="#111111", mew=1.8, gid="returned", zorder=5)
+    handles += [
+        Line2D([], [], color="#444444", lw=1.6,
+               label="non-stop, perfect-tracking screen (E⁺ without simulation)"),
+        Line2D([], [], color="#444444", marker="o", ls="none", mec="white",
+               label="non-stop, simulated (RK4, §3)"),
+        Line2D([], [], color="#444444", marker="s", ls="none", mec="white",
+               label="stop-and-go (roadmap timing)"),
+        Line2D([], [], color="#111111", marker="*", ms=14, mfc="none", ls="none",
+               label=f"returned: {returned['total_energy']:.4g} J, "
+                     f"{returned['duration']:.3g} s ({returned.get('candidate')}, "
+                     f"{returned['execution']})"),
+    ]
     ax.set_xlabel("total duration (s)")
     ax.set_ylabel("energy drawn E⁺ (J)")
-    ax.legend(fontsize="small")
+    ax.legend(handles=handles, fontsize="x-small", loc="upper right")
     ax.set_title(f"{title}: energy against duration" if title else "energy against duration")
     fig.tight_layout()
     return fig

@@ -319,6 +319,10 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
                 not short_motion.feasible):
             short_motion = None  # none within the cap: nothing to compare with
     note = f"{how}{opts.execution} execution; from the {refined.candidate} ({many})"
+    opt = refined.optimization
+    if opt is not None and not opt.get("kept_seed", True):  # docs/design.md §9g
+        note = (f"{how}{opts.execution} execution; the {opt['seed']} ({many}) optimised as a "
+                f"whole at its duration")
     series = motion_series(drive, refined.motion, scn.options.dt)
     m = refined.motion
     return RunMotion(m, series, refined, short_motion, note,

@@ -255,9 +255,10 @@ def test_ur5_wrist_swing_is_gone():
     its start and goal values (both −1.57) and back; the optimised one stays within
     0.3 rad of them on every wrist joint, for less energy at the same duration."""
     scn = mp.load_scenario("ur5")
-    plain = mp.plan(scn, show_progress=False, optimize=False).motion
     plan = mp.plan(scn, show_progress=False)
     m = plan.motion
+    refined = plan._parts.motion.refined
+    plain = refined.by_name[refined.optimization["seed"]]  # the refinement's own motion
     assert m.curve is not None and m.duration == pytest.approx(plain.duration)
     assert m.total_energy < 0.8 * plain.total_energy
     q = mp.motion_series(scn.drive(), m, scn.options.dt)["q"]

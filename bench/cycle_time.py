@@ -40,7 +40,7 @@ from mpd_pin.app.plan import plan_path, plan_shortest, prepare
 from mpd_pin.dynamics.sizing import sized_motors
 from mpd_pin.errors import NoPathError
 from mpd_pin.motion import trajectory_energy
-from mpd_pin.motion.energy import _limits
+from mpd_pin.motion.screen import joint_limits
 from mpd_pin.motion.spline import unit_knots, via_spline
 from mpd_pin.motion.topp import time_optimal_duration
 
@@ -77,7 +77,7 @@ def _topp(drive, motion, options) -> float | None:
         return None
     if motion.curve is not None:
         return time_optimal_duration(drive, motion.curve, options)
-    vlim, _ = _limits(drive)
+    vlim, _ = joint_limits(drive)
     total = 0.0
     for i, j in motion.pieces:
         W = motion.waypoints[i : j + 1]

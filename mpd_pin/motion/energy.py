@@ -34,10 +34,11 @@ from ..dynamics.supply import (
     Supply,
     energy_by_supply,
     supply_energy,
-    supply_power,
 )
 from ..dynamics.tracking import _pool, feedforward_tables, integrate_tables
-from .spline import ViaSpline, arc_boxes, pieces, unit_knots, via_spline
+from .certify import certified_pieces
+from .screen import effort_bound, ideal_nonstop, joint_limits
+from .spline import ViaSpline, unit_knots, via_spline
 
 __all__ = ["EXECUTIONS", "MotionEnergy", "trajectory_energy", "check_waypoints",
            "nonstop_tables"]
@@ -179,17 +180,6 @@ def check_waypoints(drive: Drive, waypoints: Any) -> np.ndarray:
     return W
 
 
-def _limits(drive: Drive) -> tuple[np.ndarray, np.ndarray]:
-    """(velocity limits rad/s, effort limits N·m), inf where the URDF gives none."""
-    model = drive.arm.model
-
-    def clean(x):
-        x = np.asarray(x, dtype=float)
-        return np.where(np.isfinite(x) & (x > 0), x, np.inf)
-
-    return clean(model.velocityLimit), clean(model.effortLimit)
-
-
 # ----------------------------------------------------------------------------- stop
 def _outcomes(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, dt: float,
               memo: dict | None) -> EdgeOutcomes:
@@ -210,11 +200,29 @@ def _outcomes(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, dt: f
     return EdgeOutcomes(*(np.array([r[i] for r in rows]) for i in range(len(rows[0]))))
 
 
+def limit_reasons(options, effort: float, end_error: float, velocity: float, end: str,
+                  *, effort_on: bool | None = None) -> list[str]:
+    """Why a simulated motion is infeasible under ``options`` (a RoadmapOptions): peak
+    ``effort`` and ``velocity`` as multiples of their limits (each enforced when the
+    options ask), ``end_error`` (rad) from ``end`` (e.g. "a waypoint") beyond the arrival
+    tolerance. ``effort_on`` overrides ``options.effort_limits``."""
+    effort_on = bool(options.effort_limits) if effort_on is None else effort_on
+    reasons = []
+    if effort_on and effort > 1.0 + 1e-12:
+        reasons.append(f"effort limit exceeded ({effort:.3g}× the limit)")
+    if end_error > options.arrival_tolerance:
+        reasons.append(f"ends {end_error:.3g} rad from {end} (tolerance "
+                       f"{options.arrival_tolerance:g})")
+    if options.velocity_limits and velocity > 1.0 + 1e-9:
+        reasons.append(f"velocity limit exceeded ({velocity:.3g}×)")
+    return reasons
+
+
 def _stop(drive: Drive, W: np.ndarray, dt: float, options, checker, effort_on: bool,
           memo: dict | None = None) -> MotionEnergy:
     """Rest-to-rest quintic edges between consecutive waypoints, roadmap timing."""
     Q0, Q1 = W[:-1], W[1:]
-    vlim, elim = _limits(drive)
+    vlim, elim = joint_limits(drive)
     T, _ = options.timing(Q0, Q1, drive.arm.model.velocityLimit)
     out = _outcomes(drive, Q0, Q1, T, dt, memo)
     energy = out.energy.sum(axis=0)
@@ -223,14 +231,7 @@ def _stop(drive: Drive, W: np.ndarray, dt: float, options, checker, effort_on: b
     vel = float(np.max(1.875 * np.abs(Q1 - Q0) / T[:, None] / vlim))
     eff = float(np.max(out.peak_torque / elim))
     err = float(np.max(np.abs(out.end_error)))
-    reasons = []
-    if effort_on and eff > 1.0 + 1e-12:
-        reasons.append(f"effort limit exceeded ({eff:.3g}× the limit)")
-    if err > options.arrival_tolerance:
-        reasons.append(f"ends {err:.3g} rad from a waypoint (tolerance "
-                       f"{options.arrival_tolerance:g})")
-    if options.velocity_limits and vel > 1.0 + 1e-9:  # reported always, enforced if asked
-        reasons.append(f"velocity limit exceeded ({vel:.3g}×)")
+    reasons = limit_reasons(options, eff, err, vel, "a waypoint", effort_on=effort_on)
     if checker is not None:
         free = checker.edges_free(Q0, Q1, options.resolution)
         if not free.all():
@@ -301,56 +302,11 @@ FASTEST_TOLERANCE = 0.005
 #: Rounds of simulations (each of at most 3 durations) the fastest-stretch search may take.
 FASTEST_ROUNDS = 10
 
-#: Points (at unit stretch) at which :func:`effort_bound` evaluates the torque.
-EFFORT_SAMPLES = 4000
-
 #: How a non-stop piece's duration is chosen (result.json ``motion.duration_rule``), and a
 #: stop-and-go motion's.
 NONSTOP_RULE = "least simulated energy over [fastest, max(3 × fastest, stop-and-go duration)]"
 CAPPED_RULE = "least simulated energy over [fastest, max_duration]"
 STOP_RULE = "roadmap timing (stop-and-go: each segment timed by the roadmap's duration rule)"
-
-
-def effort_bound(drive: Drive, vs: ViaSpline, samples: int = EFFORT_SAMPLES) -> float:
-    """The shortest duration (s) at which the perfect-tracking torque of the spline ``vs``,
-    stretched uniformly, stays within the effort limits at ``samples`` points of its path
-    (docs/design.md §9c); 0 without finite limits, inf when holding the arm still exceeds
-    one.
-
-    Stretched to T, with s = t_m/T, the feed-forward torque at a point of the path is
-    τ(s) = a s² + b s + g: g = RNEA(q, 0, 0) holds the arm, a = RNEA(q, q', q'') − g is the
-    inertial and Coriolis part (q', q'' per unit time, the armature in the model), b = n²B q'
-    the viscous part. |τ_k(s)| ≤ τ_lim,k holds from s = 0 up to the first positive root of
-    τ_k(s) = ±τ_lim,k; the least root over points and joints is s*, and t_m/s* the bound."""
-    _, elim = _limits(drive)
-    cols = np.isfinite(elim)
-    if not cols.any():
-        return 0.0
-    tau = np.linspace(0.0, vs.unit_duration, samples)
-    q, d1, d2 = (vs.spline(tau, nu)[:, None, :] for nu in range(3))
-    zero = np.zeros_like(q)
-    kt = drive.torque_per_amp
-    _, i_hold = feedforward_tables(drive, q, zero, zero, zero)
-    _, i_move = feedforward_tables(drive, q, d1, d2, zero)
-    g = (i_hold[:, 0] * kt)[:, cols]
-    b = (drive.damping * d1[:, 0])[:, cols]
-    a = (i_move[:, 0] * kt)[:, cols] - g - b
-    L = elim[cols]
-    if np.any(np.abs(g) > L):
-        return float("inf")
-    s_star = np.inf
-    for c in (g - L, g + L):  # τ = +τ_lim and τ = −τ_lim
-        disc = b * b - 4.0 * a * c
-        real = disc >= 0.0
-        root = np.sqrt(np.where(real, disc, 0.0))
-        # the two roots of a s² + b s + c without cancellation: p/a and c/p
-        p = -0.5 * (b + np.where(b >= 0.0, root, -root))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            for r in (p / a, c / p):
-                r = np.where(real & np.isfinite(r) & (r > 0.0), r, np.inf)
-                s_star = min(s_star, float(r.min()))
-    return 0.0 if not np.isfinite(s_star) else float(vs.unit_duration / s_star)
-
 
 class _Piece:
     """One non-stop piece (docs/design.md §9c): its spline stretched uniformly, the bounds
@@ -359,7 +315,7 @@ class _Piece:
     def __init__(self, drive: Drive, vs: ViaSpline, dt: float, options, effort_on: bool):
         self.drive, self.vs, self.dt = drive, vs, float(dt)
         self.options, self.effort_on = options, bool(effort_on)
-        vlim, self.elim = _limits(drive)
+        vlim, self.elim = joint_limits(drive)
         self.ratio = vs.peak_speed_ratio(vlim) * 1.002 if options.velocity_limits else 0.0
         #: the velocity limits' bound (s, on the dt grid, not below min_duration)
         self.t_velocity = float(_snap(max(self.ratio * vs.unit_duration,
@@ -551,89 +507,13 @@ def _ideal_curve(grid: np.ndarray, energy: np.ndarray) -> list[tuple[float, floa
     return [(float(T), float(e)) for T, e in zip(grid, energy, strict=True)]
 
 
-def ideal_nonstop(drive: Drive, vs: ViaSpline, durations: np.ndarray, samples: int = 256
-                  ) -> tuple[np.ndarray, np.ndarray]:
-    """Perfect-tracking supply energy (J; Σ E⁺ over joints with a supply per joint, §3i) of
-    the spline ``vs`` stretched to each duration (s), by Simpson's rule over ``samples`` +
-    1 points, and the peak feed-forward torque per joint (N·m), (K, nq) — a screen for the
-    duration search (§9c)."""
-    T = np.asarray(durations, dtype=float)
-    tau = np.linspace(0.0, 1.0, samples + 1)
-    t = tau[:, None] * T[None, :]
-    Qr, Vr, Ar, Jr = vs.derivatives(t, T)
-    Vff, iff = feedforward_tables(drive, Qr, Vr, Ar, Jr)
-    P = supply_power(drive.supply, Vff * iff)
-    w = np.ones(tau.size)
-    w[1:-1:2], w[2:-1:2] = 4.0, 2.0
-    energy = (w @ P) / (3.0 * samples) * T
-    return energy, np.max(np.abs(iff), axis=0) * drive.torque_per_amp
-
-
-def _fit(checker, vs: ViaSpline, a: np.ndarray, b: np.ndarray, h: float):
-    """Split the sub-arcs [a, b] (unit time, s) until each one's Bernstein box fits level
-    ``h`` (rad); returns a, b (sorted) and the boxes' centres and half-widths."""
-    while True:
-        C, D = arc_boxes(vs, a, b)
-        big = checker.box_sizes(C, D) > h
-        if not big.any():
-            return a, b, C, D
-        mid = (a[big] + b[big]) / 2
-        a = np.concatenate([a[~big], a[big], mid])
-        b = np.concatenate([b[~big], mid, b[big]])
-        order = np.argsort(a)
-        a, b = a[order], b[order]
-
-
-def _first_failure(checker, vs: ViaSpline, resolution: float, min_step: float = 1e-6
-                   ) -> float | None:
-    """Certify the spline's whole curve (joint-space boxes from its Bernstein hulls,
-    :func:`~mpd_pin.motion.spline.arc_boxes`); None if free, else the unit time (s) of the
-    first sub-arc that is in collision or too close to call."""
-    h = float(resolution)
-    a, b, C, D = _fit(checker, vs, *pieces(vs), h)
-    while a.size:
-        clear, hit = checker.boxes_clear(C, D, h)
-        if hit.any():
-            return float(a[np.flatnonzero(hit)[0]])
-        a, b = a[~clear], b[~clear]
-        if not a.size:
-            return None
-        h /= 2
-        if h < min_step:
-            return float(a[0])
-        mid = (a + b) / 2
-        a, b, C, D = _fit(checker, vs, np.concatenate([a, mid]), np.concatenate([mid, b]), h)
-    return None
-
-
-def _certified_pieces(W: np.ndarray, checker, resolution: float, vlim: np.ndarray
-                      ) -> list[tuple[int, int]]:
-    """Split the waypoints into pieces whose non-stop curves are certified free: a piece
-    whose curve fails gets a stop at the interior via point nearest the failure."""
-    todo, done = [(0, W.shape[0] - 1)], []
-    while todo:
-        i, j = todo.pop()
-        if j - i < 2 or checker is None:
-            done.append((i, j))
-            continue
-        vs = via_spline(W[i : j + 1], unit_knots(W[i : j + 1], vlim))
-        fail = _first_failure(checker, vs, resolution)
-        if fail is None:
-            done.append((i, j))
-            continue
-        inner = np.arange(1, j - i)
-        k = i + int(inner[np.argmin(np.abs(vs.knots[inner] - fail))])
-        todo += [(i, k), (k, j)]
-    return sorted(done)
-
-
 def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_duration,
              effort_on: bool, stop: MotionEnergy | None) -> MotionEnergy:
-    vlim, _ = _limits(drive)
+    vlim, _ = joint_limits(drive)
     if stop is not None and stop.colliding:
         parts = [(0, W.shape[0] - 1)]  # the polyline itself collides: nothing to certify
     else:
-        parts = _certified_pieces(W, checker, options.resolution, vlim)
+        parts = certified_pieces(W, checker, options.resolution, vlim)
     energy = np.zeros(drive.nq)
     bus = np.zeros(2)
     durations, reasons = [], []

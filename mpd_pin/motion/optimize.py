@@ -44,7 +44,9 @@ from threadpoolctl import threadpool_limits
 
 from ..dynamics.motor import Drive
 from ..dynamics.supply import supply_energy
-from .energy import MotionEnergy, _first_failure, _limits, _simulate_nonstop, _snap
+from .certify import first_failure
+from .energy import MotionEnergy, _simulate_nonstop, _snap, limit_reasons
+from .screen import joint_limits
 from .spline import ViaSpline, unit_knots, via_spline
 
 __all__ = ["OptimizeSettings", "OptimizedMotion", "optimize_curve", "optimize_motion",
@@ -160,7 +162,7 @@ class _Problem:
         n_col = settings.collision_samples or 4 * (n_c - DEGREE)
         self.tau_c = np.linspace(0.0, 1.0, n_col + 2)[1:-1]
         self.Bc = _basis(self.knots, n_c, self.tau_c, 0)
-        self.vlim, self.elim = _limits(drive)
+        self.vlim, self.elim = joint_limits(drive)
         self.supply = drive.supply
         self._cache: dict[str, Any] = {}
         self.active: list[np.ndarray] = [np.zeros(0, np.int64)] * self.tau_c.size
@@ -448,7 +450,7 @@ def seed_curve(drive: Drive, motion: MotionEnergy) -> ViaSpline:
     stop-and-go motion's polyline, or a non-stop motion's pieces, joined without stops)."""
     if motion.curve is not None:
         return motion.curve
-    vlim, _ = _limits(drive)
+    vlim, _ = joint_limits(drive)
     W = motion.waypoints
     return via_spline(W, unit_knots(W, vlim))
 
@@ -534,7 +536,7 @@ def _optimize(drive, checker, seed, T, options, settings, seed_motion, distances
         if checker is not None:
             fail = _sampled_failure(checker, curve)
             if fail is None and prob.add_samples(x) == 0:
-                fail = _first_failure(checker, curve, options.resolution)
+                fail = first_failure(checker, curve, options.resolution)
             elif fail is None:
                 fail = -1.0  # closer than the margin between samples: solve again first
             if fail is not None:
@@ -578,18 +580,12 @@ def _sampled_failure(checker: Any, curve: ViaSpline, samples: int = 400) -> floa
 def _price(drive: Drive, curve: ViaSpline, T: float, options, seed: ViaSpline
            ) -> MotionEnergy:
     """Simulate the optimised curve at T (RK4, §3) and check it as a non-stop piece."""
-    vlim, elim = _limits(drive)
+    vlim, elim = joint_limits(drive)
     E, _, err, _, peak, B = _simulate_nonstop(drive, curve, np.array([T]), float(options.dt))
     vel = curve.peak_speed_ratio(vlim) * curve.unit_duration / T
     eff = float(np.max(peak[0] / elim))
     e = float(np.max(np.abs(err[0])))
-    reasons = []
-    if options.effort_limits and eff > 1.0 + 1e-12:
-        reasons.append(f"effort limit exceeded ({eff:.3g}× the limit)")
-    if e > options.arrival_tolerance:
-        reasons.append(f"ends {e:.3g} rad from the goal")
-    if options.velocity_limits and vel > 1.0 + 1e-9:
-        reasons.append(f"velocity limit exceeded ({vel:.3g}×)")
+    reasons = limit_reasons(options, eff, e, vel, "the goal")
     total = float(supply_energy(drive.supply, E[0], B[0]))
     W = curve.waypoints
     m = W.shape[0] - 1
@@ -641,7 +637,7 @@ def optimize_motion(
         k = int(np.flatnonzero(~free)[0])
         raise ValueError(f"waypoint row {k + 1} (counting from 1) is in collision: "
                          f"{checker.describe_collision(W[k])}")
-    vlim, _ = _limits(drive)
+    vlim, _ = joint_limits(drive)
     seed = via_spline(W, unit_knots(W, vlim))
     t_min = _fastest(seed, vlim, options, float(options.dt))
     T = float(_snap(T, float(options.dt)))
@@ -649,7 +645,7 @@ def optimize_motion(
         raise ValueError(f"duration {duration:g} s is below the fastest the velocity limits "
                          f"allow this path, {t_min:.3f} s")
     base = _price(drive, seed, T, options, seed)
-    fail = _first_failure(checker, seed, options.resolution)
+    fail = first_failure(checker, seed, options.resolution)
     if fail is not None:
         base.feasible = False
         base.reason = "; ".join(filter(None, [base.reason, "the spline through the waypoints "

@@ -32,7 +32,9 @@ import numpy as np
 from ..dynamics.motor import Drive
 from ..dynamics.simulate import step_count
 from ..dynamics.supply import supply_energy
-from .energy import MotionEnergy, _first_failure, _limits, _simulate_nonstop
+from .certify import first_failure
+from .energy import MotionEnergy, _simulate_nonstop, limit_reasons
+from .screen import joint_limits
 from .spline import ViaSpline, via_spline
 
 __all__ = ["check_times", "check_timed_waypoints", "knot_times", "timed_energy",
@@ -131,24 +133,17 @@ def timed_energy(drive: Drive, waypoints: Any, times: Any, *, dt: float, options
     vs = timed_spline(W, t)
     h = timed_step(T, dt)
     E, _, end_err, _, peak, B = _simulate_nonstop(drive, vs, np.array([T]), h)
-    vlim, elim = _limits(drive)
+    vlim, elim = joint_limits(drive)
     m = W.shape[0] - 1
     samples = max(VELOCITY_SAMPLES, SAMPLES_PER_SEGMENT * m + 1)
     vel = vs.peak_speed_ratio(vlim, samples)
     eff = float(np.max(peak[0] / elim))
     err = float(np.max(np.abs(end_err[0])))
-    reasons = []
-    if options.effort_limits and eff > 1.0 + 1e-12:
-        reasons.append(f"effort limit exceeded ({eff:.3g}× the limit)")
-    if err > options.arrival_tolerance:
-        reasons.append(f"ends {err:.3g} rad from the last waypoint (tolerance "
-                       f"{options.arrival_tolerance:g})")
-    if options.velocity_limits and vel > 1.0 + 1e-9:
-        reasons.append(f"velocity limit exceeded ({vel:.3g}×)")
+    reasons = limit_reasons(options, eff, err, vel, "the last waypoint")
     if max_duration is not None and T > max_duration + 1e-9:
         reasons.append(f"takes {T:.3f} s > max_duration {max_duration:g} s")
     if checker is not None:
-        fail = _first_failure(checker, vs, options.resolution)
+        fail = first_failure(checker, vs, options.resolution)
         if fail is not None:
             k = int(np.clip(np.searchsorted(t, fail, side="right") - 1, 0, m - 1))
             reasons.append(f"the curve is not collision-free at t = {fail:.3f} s (between "

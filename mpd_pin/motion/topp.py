@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from ..dynamics.motor import Drive
-from .energy import _limits
+from .screen import joint_limits
 from .spline import ViaSpline
 
 __all__ = ["time_optimal_duration"]
@@ -55,7 +55,7 @@ def time_optimal_duration(drive: Drive, vs: ViaSpline, options: Any = None,
     from ..planning.roadmap import RoadmapOptions
 
     options = options or RoadmapOptions()
-    vlim, elim = _limits(drive)
+    vlim, elim = joint_limits(drive)
     big = 1e9
     constraints = []
     if options.velocity_limits and np.isfinite(vlim).any():

@@ -155,10 +155,10 @@ class MotionEnergy:
 
 
 # ----------------------------------------------------------------------------- input
-def check_waypoints(drive: Drive, waypoints: Any) -> np.ndarray:
+def waypoint_array(drive: Drive, waypoints: Any) -> np.ndarray:
     """``waypoints`` as an (m+1, nq) float array, continuous joints unwrapped (each point
-    the shorter way round from the one before, docs/design.md §1d) and repeated points
-    dropped; ValueError naming the row for a wrong shape, NaN or fewer than 2 points."""
+    the shorter way round from the one before, docs/design.md §1d), repeated points kept;
+    ValueError naming the row (from 1) for a wrong shape or NaN."""
     W = np.asarray(waypoints, dtype=float)
     nq = drive.nq
     if W.ndim != 2 or W.shape[1] != nq:
@@ -173,6 +173,13 @@ def check_waypoints(drive: Drive, waypoints: Any) -> np.ndarray:
         W = W.copy()
         for r in range(1, W.shape[0]):
             W[r] = arm.edge_target(W[r - 1], W[r])
+    return W
+
+
+def check_waypoints(drive: Drive, waypoints: Any) -> np.ndarray:
+    """:func:`waypoint_array` with repeated points dropped; ValueError naming the row for a
+    wrong shape, NaN or fewer than 2 distinct points."""
+    W = waypoint_array(drive, waypoints)
     keep = np.concatenate([[True], np.any(np.abs(np.diff(W, axis=0)) > 1e-12, axis=1)])
     W = W[keep]
     if W.shape[0] < 2:

@@ -33,7 +33,7 @@ from ..dynamics.motor import Drive
 from ..dynamics.simulate import step_count
 from ..dynamics.supply import supply_energy
 from .certify import first_failure
-from .energy import MotionEnergy, _simulate_nonstop, limit_reasons
+from .energy import MotionEnergy, _simulate_nonstop, limit_reasons, waypoint_array
 from .screen import joint_limits
 from .spline import ViaSpline, via_spline
 
@@ -50,22 +50,9 @@ def check_timed_waypoints(drive: Drive, waypoints: Any) -> np.ndarray:
     way round (docs/design.md §1d); unlike the untimed executions, repeated points are kept
     (with times, a repeated point is a dwell). ValueError naming the row (from 1) for NaN,
     a wrong shape or fewer than two points."""
-    W = np.asarray(waypoints, dtype=float)
-    nq = drive.nq
-    if W.ndim != 2 or W.shape[1] != nq:
-        raise ValueError(f"waypoints must have shape (m, {nq}) (one configuration per row), "
-                         f"got {W.shape}")
-    bad = np.flatnonzero(~np.isfinite(W).all(axis=1))
-    if bad.size:
-        raise ValueError(f"waypoint row {int(bad[0]) + 1} (counting from 1) contains NaN or "
-                         "infinity")
+    W = waypoint_array(drive, waypoints)
     if W.shape[0] < 2:
         raise ValueError(f"a timed trajectory needs at least two waypoints, got {W.shape[0]}")
-    arm = drive.arm
-    if arm.continuous_joints:
-        W = W.copy()
-        for r in range(1, W.shape[0]):
-            W[r] = arm.edge_target(W[r - 1], W[r])
     return W
 
 

@@ -499,11 +499,11 @@ def optimize_curve(
     if checker is not None and distances is None:
         distances = PairDistances(checker)
     with threadpool_limits(1):  # small dense algebra: a second BLAS thread only spins
-        return _optimize(drive, checker, seed, T, options, settings, seed_motion, distances,
+        return _optimize(drive, checker, T, options, settings, seed_motion, distances,
                          C0, n_c, w0, c0)
 
 
-def _optimize(drive, checker, seed, T, options, settings, seed_motion, distances, C0, n_c,
+def _optimize(drive, checker, T, options, settings, seed_motion, distances, C0, n_c,
               w0, c0) -> OptimizedMotion:
     """The body of :func:`optimize_curve` (BLAS on one thread)."""
     rec: dict[str, Any] = {"duration": T, "control_points": n_c,
@@ -516,26 +516,25 @@ def _optimize(drive, checker, seed, T, options, settings, seed_motion, distances
     rec["screen_energy_in"] = prob.energy(x0)
     kept = None
     x = x0
-    prob.s = settings
     for attempt in range(int(settings.retries) + 1):
         if attempt and time.process_time() > c0 + settings.budget:
             rec["why"] = rec.get("why", "") + f"; CPU budget ({settings.budget:g} s) used up"
             break
-        if attempt:  # collision samples where the last solve came too close between them
-            rec["samples_added"] = rec.get("samples_added", 0) + prob.add_samples(x)
         try:
             x, info = _solve(prob, x, settings, deadline=c0 + settings.budget)
         except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
             rec.update(kept_seed=True, why=f"solver failed: {exc}")
             break
-        for k in ("iterations",):
-            info[k] += rec.get(k, 0)
+        info["iterations"] += rec.get("iterations", 0)
         rec.update(info)
         rec["screen_energy_out"] = prob.energy(x)
         curve = spline_curve(prob.knots, prob.C(x), T)
         if checker is not None:
             fail = _sampled_failure(checker, curve)
-            if fail is None and prob.add_samples(x) == 0:
+            # collision samples where it came too close between them, for the next solve
+            added = prob.add_samples(x)
+            rec["samples_added"] = rec.get("samples_added", 0) + added
+            if fail is None and not added:
                 fail = first_failure(checker, curve, options.resolution)
             elif fail is None:
                 fail = -1.0  # closer than the margin between samples: solve again first
@@ -547,11 +546,10 @@ def _optimize(drive, checker, seed, T, options, settings, seed_motion, distances
                 continue
         rec["certified"] = True
         rec.pop("why", None)
-        kept = _price(drive, curve, T, options, seed)
+        kept = _price(drive, curve, T, options)
         break
-    margin = settings.margin
     rec.update(seconds=time.perf_counter() - w0, cpu_seconds=time.process_time() - c0,
-               margin=margin)
+               margin=settings.margin)
     if kept is None:
         rec.setdefault("why", "no certified optimum")
         rec["kept_seed"] = True
@@ -577,8 +575,7 @@ def _sampled_failure(checker: Any, curve: ViaSpline, samples: int = 400) -> floa
     return float(t[np.argmax(hit)]) if hit.any() else None
 
 
-def _price(drive: Drive, curve: ViaSpline, T: float, options, seed: ViaSpline
-           ) -> MotionEnergy:
+def _price(drive: Drive, curve: ViaSpline, T: float, options) -> MotionEnergy:
     """Simulate the optimised curve at T (RK4, §3) and check it as a non-stop piece."""
     vlim, elim = joint_limits(drive)
     E, _, err, _, peak, B = _simulate_nonstop(drive, curve, np.array([T]), float(options.dt))
@@ -644,7 +641,7 @@ def optimize_motion(
     if T < t_min - 1e-9:
         raise ValueError(f"duration {duration:g} s is below the fastest the velocity limits "
                          f"allow this path, {t_min:.3f} s")
-    base = _price(drive, seed, T, options, seed)
+    base = _price(drive, seed, T, options)
     fail = first_failure(checker, seed, options.resolution)
     if fail is not None:
         base.feasible = False

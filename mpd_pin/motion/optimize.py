@@ -42,10 +42,18 @@ from scipy.interpolate import BSpline
 from scipy.optimize import minimize
 from threadpoolctl import threadpool_limits
 
+from ..collision.distance import PairDistances
 from ..dynamics.motor import Drive
 from ..dynamics.supply import supply_energy
 from .certify import first_failure
-from .energy import MotionEnergy, _simulate_nonstop, _snap, limit_reasons
+from .energy import (
+    MotionEnergy,
+    _fastest,
+    _simulate_nonstop,
+    _snap,
+    check_waypoints,
+    limit_reasons,
+)
 from .screen import joint_limits
 from .spline import ViaSpline, unit_knots, via_spline
 
@@ -479,8 +487,6 @@ def optimize_curve(
     ``seed_motion`` when simulated (docs/design.md §9g). ``distances``: a
     :class:`~mpd_pin.collision.distance.PairDistances` of ``checker`` to reuse.
     Never raises for a failed solve: the seed is kept and the record says why."""
-    from ..collision.distance import PairDistances
-
     settings = settings or OptimizeSettings()
     w0, c0 = time.perf_counter(), time.process_time()
     dt = float(options.dt)
@@ -617,7 +623,6 @@ def optimize_motion(
     fastest the velocity limits allow the seed (naming that minimum)."""
     from ..collision import CollisionChecker
     from ..planning.roadmap import RoadmapOptions
-    from .energy import _fastest, check_waypoints
 
     options = options or RoadmapOptions()
     W = check_waypoints(drive, waypoints)

@@ -21,7 +21,7 @@ import numpy as np
 from ..dynamics.motor import Drive
 from ..dynamics.supply import PER_JOINT
 from ..progress import bar as progress_bar
-from .energy import EXECUTIONS, MotionEnergy, trajectory_energy
+from .energy import EXECUTIONS, MotionEnergy, stretch_front, trajectory_energy
 from .relax import relax_path
 from .shortcut import shortcut_path
 
@@ -298,7 +298,6 @@ def _stretch_front(drive: Drive, options: Any, motion: MotionOptions, m: MotionE
     fastest feasible stretch of its curve, the screen from there to the longer of its
     duration and its seed's longest (within ``max_duration``), and 4 durations simulated
     besides its own; and its duration rule (its seed's duration)."""
-    from .energy import stretch_front
 
     longest = max(float(seed.longest or seed.duration), float(m.duration))
     if motion.max_duration is not None:

@@ -19,6 +19,7 @@ from ..dynamics.motor import Drive
 from ..dynamics.simulate import step_count
 from .energy import MotionEnergy, _simulate_nonstop
 from .spline import unit_knots, via_spline
+from .timed import knot_times, timed_spline, timed_step
 
 __all__ = ["motion_series"]
 
@@ -55,8 +56,6 @@ def _pieces(drive: Drive, m: MotionEnergy, dt: float):
                rec.bus_energy_t[:, 0], m.curve.knots * (T / m.curve.unit_duration))
         return
     if m.execution == "timed":  # one piece; piece_durations are its segment durations
-        from .timed import knot_times, timed_spline, timed_step
-
         knots = knot_times(m.piece_durations)
         T = float(knots[-1])
         h = timed_step(T, dt)

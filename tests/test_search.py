@@ -513,3 +513,100 @@ def test_adjacency_views_are_live_and_match_networkx() -> None:
     assert succ.nbr[k] == 2 and succ.cost[k] == 7.0
     j = pred.ptr[2] + pred.nbr[pred.ptr[2]:pred.ptr[3]].index(1)
     assert pred.cost[j] == 7.0
+
+
+# ------------------------------------------ update_edge's inlined fast path
+@pytest.mark.parametrize("P", INCREMENTAL)
+def test_update_edge_fast_and_checked_paths_agree_with_networkx(P) -> None:
+    """update_edge writes the cost itself for plain int ids and float costs (Graph.set_cost
+    inlined) and goes through set_cost for anything else (numpy ids, int costs, -0.0):
+    either way both cost orders of the graph hold the new cost, and the repaired path
+    matches networkx's on the changed graph, blocked node after blocked node."""
+    pts, g = _geometric(600, 6, seed=5)
+    start, goal = int(np.argmin(pts.sum(1))), int(np.argmax(pts.sum(1)))
+    p = P(g, start, goal)
+    nodes = p.plan().nodes
+    forms = [
+        lambda u, v, c: (u, v, c),
+        lambda u, v, c: (np.int64(u), np.int32(v), np.float64(c)),
+        lambda u, v, c: (u, v, int(c) if c < INF else c),
+    ]
+    for step in range(4):
+        node = nodes[min(2, len(nodes) - 2)]
+        if node in (start, goal):
+            break
+        blocked = [(int(u), node) for u in g.predecessors(node)]
+        blocked += [(node, int(v)) for v in g.successors(node)]
+        for i, (u, v) in enumerate(blocked):
+            p.update_edge(*forms[(i + step) % 3](u, v, INF))
+        # re-cost a few finite edges too, as -0.0 and as int, through both paths
+        u0, v0 = nodes[-2], nodes[-1]
+        p.update_edge(u0, v0, -0.0 if step % 2 else 0.0)
+        assert math.copysign(1.0, g.cost(u0, v0)) == 1.0
+        u1, v1 = nodes[0], nodes[1]
+        if (u1, v1) not in blocked:
+            p.update_edge(*forms[step % 3](u1, v1, float(step + 1)))
+        pred = g.predecessor_view
+        for u, v in [*blocked, (u0, v0), (u1, v1)]:
+            a, b = pred.ptr[v], pred.ptr[v + 1]
+            assert pred.cost[a + pred.nbr[a:b].index(u)] == g.cost(u, v)
+        G = _nx(g)
+        try:
+            ref = nx.dijkstra_path_length(G, start, goal)
+        except nx.NetworkXNoPath:
+            with pytest.raises(NoPathError):
+                p.plan()
+            break
+        path = p.plan()
+        assert path.cost == _path_sum(g, path.nodes)
+        assert math.isclose(path.cost, ref, rel_tol=1e-12), (step, path.cost, ref)
+        assert all(math.isfinite(g.cost(a, b)) for a, b in path.edges)
+        nodes = path.nodes
+
+
+@pytest.mark.parametrize("P", INCREMENTAL)
+def test_update_edge_rejects_bad_input_like_set_cost(P) -> None:
+    """Inputs the fast path does not take get set_cost's checks and messages, and a
+    refused change leaves the planner as it was."""
+    g = Graph(3, [(0, 1, 1.0), (1, 2, 1.0), (0, 2, 5.0)])
+    p = P(g, 0, 2)
+    assert p.plan() == Path([0, 1, 2], 2.0)
+    with pytest.raises(ValueError, match=r"edge head 3 is out of range \[0, 2\]"):
+        p.update_edge(0, 3, INF)
+    with pytest.raises(ValueError, match=r"edge head -1 is out of range"):
+        p.update_edge(0, -1, INF)
+    with pytest.raises(ValueError, match=r"edge tail 7 is out of range"):
+        p.update_edge(7, 1, INF)
+    with pytest.raises(ValueError, match="NaN"):
+        p.update_edge(0, 1, math.nan)
+    with pytest.raises(ValueError, match="negative"):
+        p.update_edge(0, 1, -INF)
+    with pytest.raises(TypeError, match="must be an integer"):
+        p.update_edge(True, 1, INF)
+    with pytest.raises(TypeError, match="must be an integer"):
+        p.update_edge(0, 1.0, INF)
+    with pytest.raises(KeyError, match="no edge 2 -> 1"):
+        p.update_edge(2, 1, 1.0)
+    assert g.cost(0, 1) == 1.0
+    assert p.plan() == Path([0, 1, 2], 2.0)
+
+
+def test_mpd_one_pass_extraction_reports_corrupt_pointers() -> None:
+    """MPD* Lite's path is read and summed in one pass; a broken pointer chain still gives
+    the errors of the two-pass reading (no pointer, a loop, a blocked edge)."""
+    g = Graph(4, [(0, 1, 1.0), (1, 0, 1.0), (1, 2, 1.0), (2, 3, 1.0), (0, 3, 9.0)])
+    p = MPDStarLite(g, 0, 3)
+    assert p.plan() == Path([0, 1, 2, 3], 3.0)
+    assert p._extract_path() == p._path_from_nodes(p._extract())
+    saved = list(p._ptr)
+    p._ptr[1] = -1
+    with pytest.raises(SearchInvariantError, match="node 1 on the path from 0 has no stored"):
+        p._extract_path()
+    p._ptr[:] = saved
+    p._ptr[1] = 0
+    with pytest.raises(SearchInvariantError, match="did not reach goal 3"):
+        p._extract_path()
+    p._ptr[:] = saved
+    g.set_cost(1, 2, INF)  # behind the planner's back: the stored pointer uses it
+    with pytest.raises(SearchInvariantError, match="edge 1 -> 2, which is missing or blocked"):
+        p._extract_path()

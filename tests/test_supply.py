@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import mpd_pin as mp
-from mpd_pin.dynamics.supply import node_potential
+from mpd_pin.dynamics.bound import node_potential
 from mpd_pin.motion.refine import OPTIMIZED
 from mpd_pin.planning.roadmap import Roadmap
 from mpd_pin.planning.supply_costs import reweighted

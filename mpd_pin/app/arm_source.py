@@ -96,9 +96,9 @@ def arm_from_table(t: Table, base_dir: Path | None, *, default_builtin: str | No
     source = choices[0]
     for key in ("package_dirs", "srdf", "xacro_args"):
         if t.has(key) and source != "urdf":
-            raise ConfigError(f"{t._name(key)}: only with {t._name('urdf')}")
+            raise ConfigError(f"{t.key_path(key)}: only with {t.key_path('urdf')}")
     if t.has("lock") and source == "builtin":
-        raise ConfigError(f"{t._name('lock')}: only with urdf or example_robot_data")
+        raise ConfigError(f"{t.key_path('lock')}: only with urdf or example_robot_data")
     lock = _lock_table(t)
     if source == "builtin":
         arm = builtin_arm(t.string("builtin", choices=BUILTIN_ARMS))
@@ -134,11 +134,11 @@ def _urdf_options(t: Table, base_dir: Path | None) -> dict[str, Any]:
     """``package_dirs``, ``srdf`` and ``xacro_args`` of an ``[arm]`` table with ``urdf``."""
     dirs = t.raw("package_dirs", [])
     if not isinstance(dirs, list) or not all(isinstance(d, str) for d in dirs):
-        raise ConfigError(f"{t._name('package_dirs')}: expected an array of folder names")
+        raise ConfigError(f"{t.key_path('package_dirs')}: expected an array of folder names")
     dirs = [_path(d, base_dir) for d in dirs]
     for d in dirs:
         if not d.is_dir():
-            raise ConfigError(f"{t._name('package_dirs')}: {str(d)!r} is not a folder")
+            raise ConfigError(f"{t.key_path('package_dirs')}: {str(d)!r} is not a folder")
     srdf = t.string("srdf", None)
     args = t.table("xacro_args")
     xacro_args = {}
@@ -148,7 +148,7 @@ def _urdf_options(t: Table, base_dir: Path | None) -> dict[str, Any]:
             xacro_args[key] = value
         else:
             raise ConfigError(
-                f"{args._name(key)}: expected a string, number or boolean, got {value!r}"
+                f"{args.key_path(key)}: expected a string, number or boolean, got {value!r}"
             )
     return {
         "package_dirs": [str(d) for d in dirs],

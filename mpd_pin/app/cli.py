@@ -7,7 +7,8 @@
         [--seed N] [--planner NAME]         (planners: mpd_pin.search.PLANNERS, listed by --help)
         [--evaluation lazy|eager]           (override [roadmap] evaluation)
         [--collision lazy|eager]            (override [roadmap] collision)
-        [--nodes N] [--execution auto|stop|nonstop] [--no-refine] [--quiet] [--no-replay]
+        [--nodes N] [--execution auto|stop|nonstop] [--no-refine] [--no-optimize]
+        [--quiet] [--no-replay] [--no-plots]  (no progress; no replay.html; no figures)
         [--max-duration S]                  (override [motion] max_duration: the cycle time)
         [--cache FILE] [--scheduler ADDRESS|local[:N]]   roadmap file; Dask cluster (§4h)
     mpd-pin energy NAME|FILE PATHFILE       price a path planned elsewhere (CSV or JointTrajectory
@@ -122,7 +123,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         result = run_scenario(scn, out, show_progress=not args.quiet,
                               cache=Path(args.cache) if args.cache else None,
-                              replay=not args.no_replay)
+                              replay=not args.no_replay, plots=not args.no_plots)
     except NoMotionWithinDuration as exc:  # main prints it (status 3); the files are written
         if exc.result is not None:
             exc.args = (f"{exc}; its files are in {str(out)!r} (result.json: feasible "
@@ -308,8 +309,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="override [motion] max_duration: the longest the motion may take (s, "
                         "the cycle time); none within it: result.json with feasible false, "
                         "the fastest motion found, and exit status 3")
-    p.add_argument("--no-replay", action="store_true", help="skip the meshcat replay.html")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--no-replay", action="store_true",
+                   help="skip the meshcat replay.html (meshcat is not imported)")
+    p.add_argument("--no-plots", action="store_true",
+                   help="skip the PNG figures (path.png, joint_angles.png, energy.png, "
+                        "energy_duration.png; matplotlib is not imported)")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress bars or status lines (stderr: errors only)")
     p.set_defaults(func=cmd_run)
     p = sub.add_parser("energy", help="price a path planned elsewhere (OMPL, MoveIt): its "
                        "energy stop-and-go or non-stop on a scenario's arm and motors",

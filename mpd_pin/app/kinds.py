@@ -12,18 +12,28 @@ kind               parsed into / run by                               paper
 
 :func:`load_scenario` reads a built-in name or a file of any kind; :func:`run_scenario`
 runs it and :func:`summary_line` gives the line ``mpd-pin run`` prints. Each kind's
-modules are imported when a scenario of that kind is parsed or run, not before.
+modules are imported when a scenario of that kind is parsed or run, not before (those
+function-level imports point down the layering: nothing they import imports this
+module). The kind names, :func:`scenario_kind` and the file reading are
+:mod:`mpd_pin.app.scenario_files`, named here too.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from ..search.registry import PLANNERS
 from .config import ConfigError
+from .scenario_files import (
+    DEFAULT_KIND,
+    KIND_NAMES,
+    load_scenario_data,
+    resolve_scenario,
+    scenario_kind,
+)
 
 __all__ = [
     "DEFAULT_KIND",
@@ -35,15 +45,13 @@ __all__ = [
     "summary_line",
 ]
 
-DEFAULT_KIND = "energy"
-
 
 @dataclass(frozen=True)
 class ScenarioKind:
     """How one kind of scenario is parsed, run and summed up.
 
     ``parse(data, path, seed=, planner=)`` → the scenario (ConfigError if bad);
-    ``run(scenario, out_dir, show_progress=, cache=, replay=)`` → the result dict written
+    ``run(scenario, out_dir, show_progress=, cache=, replay=, plots=)`` → the result dict written
     to ``out_dir/result.json``; ``summary(scenario, result, out_dir)`` → one line.
     """
 
@@ -64,11 +72,12 @@ def _parse_energy(data: dict[str, Any], path: Path, *, seed: int | None, planner
     return replace(scn, planner=planner)
 
 
-def _run_energy(scn, out_dir: Path, *, show_progress: bool, cache: Path | None, replay: bool):
+def _run_energy(scn, out_dir: Path, *, show_progress: bool, cache: Path | None, replay: bool,
+                plots: bool):
     from .runner import run_energy_scenario
 
     return run_energy_scenario(scn, out_dir, show_progress=show_progress, cache=cache,
-                               replay=replay)
+                               replay=replay, plots=plots)
 
 
 def _summary_energy(scn, result: dict[str, Any], out_dir: Path) -> str:
@@ -112,11 +121,12 @@ def _parse_dynamic(data: dict[str, Any], path: Path, *, seed: int | None, planne
     return parse_dynamic_scenario(data, base_dir=path.parent, seed=seed)
 
 
-def _run_dynamic(scn, out_dir: Path, *, show_progress: bool, cache: Path | None, replay: bool):
+def _run_dynamic(scn, out_dir: Path, *, show_progress: bool, cache: Path | None, replay: bool,
+                 plots: bool):
     """``cache`` and ``replay`` do not apply (no roadmap, no meshcat replay) and are ignored."""
     from ..twolink.run import run_dynamic_scenario
 
-    return run_dynamic_scenario(scn, out_dir, show_progress=show_progress)
+    return run_dynamic_scenario(scn, out_dir, show_progress=show_progress, plots=plots)
 
 
 def _summary_dynamic(scn, result: dict[str, Any], out_dir: Path) -> str:
@@ -135,11 +145,8 @@ KINDS: dict[str, ScenarioKind] = {
         _summary_dynamic,
     ),
 }
-
-
-def scenario_kind(data: Mapping[str, Any]) -> str:
-    """The ``kind`` of parsed scenario TOML (``"energy"`` when it gives none)."""
-    return str(data.get("kind", DEFAULT_KIND))
+if tuple(KINDS) != KIND_NAMES:  # the files are checked against KIND_NAMES
+    raise RuntimeError(f"KINDS {tuple(KINDS)} and scenario_files.KIND_NAMES {KIND_NAMES} differ")
 
 
 def load_scenario(name_or_path: str | Path, *, seed: int | None = None,
@@ -150,20 +157,20 @@ def load_scenario(name_or_path: str | Path, *, seed: int | None = None,
     ``planner`` (a name of :data:`mpd_pin.search.PLANNERS`) its ``[planner] algorithm``
     (energy scenarios only). Raises ConfigError for bad input.
     """
-    from .scenario_files import load_scenario_data, resolve_scenario
-
     path = resolve_scenario(str(name_or_path))
     data = load_scenario_data(path)
     return KINDS[scenario_kind(data)].parse(data, path, seed=seed, planner=planner)
 
 
 def run_scenario(scn: Any, out_dir: Path, *, show_progress: bool = True,
-                 cache: Path | None = None, replay: bool = True) -> dict[str, Any]:
+                 cache: Path | None = None, replay: bool = True,
+                 plots: bool = True) -> dict[str, Any]:
     """Run a scenario of any kind (from :func:`load_scenario`) and write its results into
     ``out_dir``; returns the result dict. ``cache`` (roadmap .npz) and ``replay``
-    (meshcat replay.html) apply to energy scenarios."""
+    (meshcat replay.html) apply to energy scenarios; ``plots=False`` skips the PNG figures
+    (and matplotlib) of every kind."""
     return KINDS[scn.kind].run(scn, Path(out_dir), show_progress=show_progress, cache=cache,
-                               replay=replay)
+                               replay=replay, plots=plots)
 
 
 def summary_line(scn: Any, result: dict[str, Any], out_dir: Path) -> str:

@@ -1,8 +1,10 @@
 """Physical ranges of every number a scenario file may hold (docs/design.md §7b).
 
 A scenario value outside its range is refused when it is read (:class:`~mpd_pin.app.config.Table`
-calls :meth:`Bound.check`), with one line naming the key and the bound, so that no numerical
-routine ever sees an absurd or non-finite number. Two kinds of bound:
+calls :meth:`Bound.check`; :class:`Bound` is defined in :mod:`mpd_pin.app.config`, beside
+the table that applies it, and named here too), with one line naming the key and the
+bound, so that no numerical routine ever sees an absurd or non-finite number. Two kinds
+of bound:
 
 * fixed ones, :data:`BOUNDS` — far beyond any real motor, gain or step size, tight enough
   that a typo (``1e308``, degrees for radians) fails clearly;
@@ -16,11 +18,10 @@ routine ever sees an absurd or non-finite number. Two kinds of bound:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from .config import ConfigError, Table, did_you_mean
+from .config import Bound, ConfigError, Table, did_you_mean
 
 __all__ = [
     "BOUNDS",
@@ -37,53 +38,6 @@ __all__ = [
 
 #: Positions within ± this many times the arm's reach (m).
 WORKSPACE_FACTOR = 10.0
-
-
-@dataclass(frozen=True)
-class Bound:
-    """A closed range ``[lo, hi]`` of one physical quantity (``lo_open``: ``lo`` excluded).
-
-    ``tol``: how far beyond ``[lo, hi]`` a value is still accepted (not shown in the
-    message); ``far_hint``: appended to the message of a value more than ``far`` outside
-    the range, e.g. "did you give degrees?" for joint angles (:func:`joint_bounds`).
-    """
-
-    lo: float
-    hi: float
-    unit: str = ""
-    what: str = ""  # e.g. "the workspace bound" (symmetric ranges), else "the range"
-    lo_open: bool = False
-    allow_inf: bool = False  # +inf accepted as a value with a meaning (e.g. "no edge")
-    note: str = ""  # appended to the description, e.g. "or inf: no edge"
-    tol: float = 0.0
-    interval: bool = False  # describe as [lo, hi] even when symmetric
-    far: float = math.inf
-    far_hint: str = ""
-
-    def describe(self) -> str:
-        u = f" {self.unit}" if self.unit else ""
-        note = f", {self.note}" if self.note else ""
-        if self.lo == -self.hi and not self.lo_open and not self.interval:
-            return f"{self.what or 'the bound'} of ±{self.hi:g}{u}{note}"
-        left = "(" if self.lo_open else "["
-        return f"{self.what or 'the range'} {left}{self.lo:g}, {self.hi:g}]{u}{note}"
-
-    def check(self, name: str, value: float) -> float:
-        """``value`` if within range, else ConfigError naming ``name`` and the bound."""
-        u = f" {self.unit}" if self.unit else ""
-        if math.isinf(value) and value > 0 and self.allow_inf:
-            return value
-        if not math.isfinite(value):
-            raise ConfigError(f"{name} = {value} is not a finite number "
-                              f"(expected within {self.describe()})")
-        lo, hi = self.lo - self.tol, self.hi + self.tol
-        below = value <= lo if self.lo_open else value < lo
-        if below or value > hi:
-            hint = ""
-            if self.far_hint and (value < self.lo - self.far or value > self.hi + self.far):
-                hint = f"; {self.far_hint}"
-            raise ConfigError(f"{name} = {value:g}{u} is outside {self.describe()}{hint}")
-        return value
 
 
 def _b(lo: float, hi: float, unit: str, what: str, **kw) -> Bound:

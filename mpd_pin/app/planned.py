@@ -36,7 +36,7 @@ from .timing import PhaseClock
 from .trajectory import joint_trajectory, write_trajectory_csv, write_trajectory_json
 from .verify import Verification
 
-__all__ = ["Plan", "RoadmapPath", "check_output_dir"]
+__all__ = ["Plan", "PlanParts", "RoadmapPath", "check_output_dir"]
 
 
 def check_output_dir(out_dir: Path) -> bool:
@@ -77,8 +77,9 @@ class RoadmapPath:
 
 
 @dataclass
-class _Parts:
-    """What one query computed (app/planner.py), in the order of the run's phases."""
+class PlanParts:
+    """What one query computed, in the order of the run's phases: the input of
+    :class:`Plan` (built by :meth:`mpd_pin.app.planner.EnergyPlanner.plan`)."""
 
     scenario: EnergyScenario
     setup: Setup
@@ -112,7 +113,7 @@ class Plan:
     ``max_duration``), ``reason`` then saying why.
     """
 
-    def __init__(self, parts: _Parts) -> None:
+    def __init__(self, parts: PlanParts) -> None:
         self._parts = parts
         p = parts
         self.scenario = p.scenario
@@ -201,24 +202,26 @@ class Plan:
                 plt.close(fig)
         return figs[which]
 
-    def save(self, out_dir: str | os.PathLike, *, replay: bool = True,
+    def save(self, out_dir: str | os.PathLike, *, replay: bool = True, plots: bool = True,
              show_progress: bool | None = None) -> dict[str, Any]:
         """Write the files of ``mpd-pin run`` into ``out_dir`` (created if needed):
-        trajectory.csv/json, path.png, joint_angles.png, energy.png (energy_duration.png),
-        replay.html (with ``replay``) and result.json last. Returns result.json's content.
+        trajectory.csv/json, path.png, joint_angles.png, energy.png (energy_duration.png;
+        with ``plots``, which imports matplotlib), replay.html (with ``replay``, which
+        imports meshcat) and result.json last. Returns result.json's content.
         A folder this call created is removed again if it fails before writing a file.
         ``show_progress`` (default: the planner's) prints a status line per phase."""
         out_dir = Path(out_dir)
         created = check_output_dir(out_dir)
         shown = self._parts.show_progress if show_progress is None else bool(show_progress)
         try:
-            return self._save_in(out_dir, replay, shown)
+            return self._save_in(out_dir, replay, plots, shown)
         except BaseException:
             if created and out_dir.is_dir() and not any(out_dir.iterdir()):
                 out_dir.rmdir()
             raise
 
-    def _save_in(self, out_dir: Path, replay: bool, shown: bool) -> dict[str, Any]:
+    def _save_in(self, out_dir: Path, replay: bool, plots: bool,
+                 shown: bool) -> dict[str, Any]:
         from ..progress import status
 
         p, clock = self._parts, self._parts.clock
@@ -228,9 +231,10 @@ class Plan:
         with clock.phase("trajectory"):
             write_trajectory_csv(out_dir / "trajectory.csv", names, p.moved.series, kt)
             write_trajectory_json(out_dir / "trajectory.json", self._traj)
-        with clock.phase("plots"), status("plots", shown):
-            write_plots(out_dir, p.scenario, p.setup, p.result, p.moved,
-                        (p.shortest, p.shortest_check), motion=p.motion)
+        if plots:
+            with clock.phase("plots"), status("plots", shown):
+                write_plots(out_dir, p.scenario, p.setup, p.result, p.moved,
+                            (p.shortest, p.shortest_check), motion=p.motion)
         record = dict(self._record)
         if replay:
             with clock.phase("replay"), status("replay", shown):

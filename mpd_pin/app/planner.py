@@ -1,5 +1,5 @@
-"""The Python front door: :class:`EnergyPlanner`, :func:`plan` and :func:`configure`
-(docs/design.md §8b).
+"""The Python front door: :class:`EnergyPlanner` and :func:`configure` (docs/design.md
+§8b); :func:`mpd_pin.plan` is :mod:`mpd_pin.app.api`.
 
 An :class:`EnergyPlanner` is a drive (arm, motors, controller), a world and the
 roadmap, search and motion options. Its first :meth:`~EnergyPlanner.plan` builds the
@@ -11,7 +11,6 @@ multi-query use and cycles (A → B → C → A, :meth:`~EnergyPlanner.plan_legs
 Each query runs the phases of a run (docs/design.md §7c): ``roadmap``, ``search``,
 ``verification``, ``comparison``, ``refinement``; the result is a
 :class:`~mpd_pin.app.planned.Plan`, which writes the files only when saved.
-:func:`plan` is one query of a scenario, what ``mpd-pin run`` computes.
 """
 
 from __future__ import annotations
@@ -34,13 +33,13 @@ from .config import ConfigError
 from .motion_step import make_motion
 from .outputs import add_motion_comparison, cache_record, comparison_record
 from .plan import plan_path, plan_shortest, prepare, requery
-from .planned import Plan, _Parts
+from .planned import Plan, PlanParts
 from .scenario import EVALUATIONS, EnergyScenario
 from .timing import PhaseClock
 from .trajectory import DEFAULT_TRAJECTORY_RATE
 from .verify import verify_path
 
-__all__ = ["EnergyPlanner", "plan", "configure", "check_max_duration"]
+__all__ = ["EnergyPlanner", "configure", "check_max_duration"]
 
 
 def check_max_duration(value: Any, name: str = "max_duration") -> float:
@@ -311,29 +310,10 @@ class EnergyPlanner:
             moved = motion.check()
             add_motion_comparison(comparison, motion)
         clock.finish()
-        plan = Plan(_Parts(scn, setup, result, check, short, short_check, motion, moved,
+        plan = Plan(PlanParts(scn, setup, result, check, short, short_check, motion, moved,
                            comparison, clock, cache, self.trajectory_rate, self.show_progress))
         if motion.failure:  # a planning outcome: the fastest motion found is over the cap
             raise NoMotionWithinDuration(motion.failure, motion.energy.duration, plan,
                                          max_duration=scn.motion.max_duration)
         return plan
 
-
-def plan(scenario: EnergyScenario | str | os.PathLike, *, seed: int | None = None,
-         cache: str | os.PathLike | None = None, show_progress: bool = True,
-         **settings: Any) -> Plan:
-    """Plan a scenario — an :class:`~mpd_pin.app.scenario.EnergyScenario`, a built-in name
-    or a ``.toml`` path — exactly as ``mpd-pin run`` does: a
-    :class:`~mpd_pin.app.planned.Plan` (energies J). ``seed`` and ``settings`` (the
-    keywords of :func:`configure`: planner, evaluation, collision, execution, refine,
-    max_duration (s), scheduler, num_nodes) override the scenario's; ``cache`` is a roadmap
-    ``.npz`` to reuse or write. :class:`~mpd_pin.NoMotionWithinDuration` when no motion
-    runs within ``max_duration``.
-    """
-    if isinstance(scenario, (str, os.PathLike)):
-        from .kinds import load_scenario
-
-        scenario = load_scenario(scenario)
-    scn = configure(scenario, seed=seed, **settings)
-    with EnergyPlanner.from_scenario(scn, cache=cache, show_progress=show_progress) as p:
-        return p.plan(scn.start, scn.goal)

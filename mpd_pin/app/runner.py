@@ -16,8 +16,9 @@
   (``refinement``);
 * write (:mod:`mpd_pin.app.outputs`, :mod:`mpd_pin.app.trajectory`) — the motion's
   ``trajectory.csv`` and ``trajectory.json`` (``trajectory``), ``path.png``,
-  ``joint_angles.png``, ``energy.png``, ``energy_duration.png`` (``plots``),
-  ``replay.html`` (``replay``) and ``result.json`` (its layout is described in
+  ``joint_angles.png``, ``energy.png``, ``energy_duration.png`` (``plots``; skipped with
+  ``plots=False``, ``--no-plots``), ``replay.html`` (``replay``; skipped with
+  ``replay=False``, ``--no-replay``) and ``result.json`` (its layout is described in
   :mod:`mpd_pin.app.outputs`).
 
 The output folder is created and probed for writing first: one that cannot be written is
@@ -51,10 +52,12 @@ def run_energy_scenario(
     show_progress: bool = True,
     cache: Path | None = None,
     replay: bool = True,
+    plots: bool = True,
     trajectory_rate: float = DEFAULT_TRAJECTORY_RATE,
 ) -> dict[str, Any]:
     """Plan ``scn`` and write result.json, trajectory.csv/json (``trajectory_rate`` Hz), the
-    plots and (with ``replay``) replay.html into ``out_dir``; ``cache`` is a roadmap
+    plots (with ``plots``; matplotlib is imported only then) and replay.html (with
+    ``replay``; meshcat likewise) into ``out_dir``; ``cache`` is a roadmap
     ``.npz`` to reuse or create (an interrupted build resumes). Edge energies run where
     ``scn.scheduler`` says (:func:`~mpd_pin.dynamics.remote.open_compute`; connected first,
     so an unreachable cluster fails before any work; docs/design.md §4h). Returns the
@@ -70,10 +73,10 @@ def run_energy_scenario(
         try:
             plan = planner.plan(scn.start, scn.goal)
         except NoMotionWithinDuration as exc:  # an answer all the same: its files, then why
-            exc.result = exc.plan.save(out_dir, replay=replay)
+            exc.result = exc.plan.save(out_dir, replay=replay, plots=plots)
             raise
         except BaseException:
             if created and out_dir.is_dir() and not any(out_dir.iterdir()):
                 out_dir.rmdir()
             raise
-        return plan.save(out_dir, replay=replay)
+        return plan.save(out_dir, replay=replay, plots=plots)

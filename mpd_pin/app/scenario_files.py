@@ -1,21 +1,36 @@
-"""Scenario files: the built-in TOML files and reading any TOML file (docs/design.md §7b).
+"""Scenario files: the built-in TOML files, reading any TOML file and its ``kind``
+(docs/design.md §7b).
 
-Light on purpose — only the standard library and :mod:`mpd_pin.app.kinds` — so that
+Light on purpose — only the standard library and :mod:`mpd_pin.app.config` — so that
 ``mpd-pin scenarios`` and ``mpd-pin show`` answer without importing Pinocchio, Coal or
-yourdfpy (docs/design.md §8a).
+yourdfpy (docs/design.md §8a). The kind names are here (:data:`KIND_NAMES`); how each kind
+is parsed and run is :data:`mpd_pin.app.kinds.KINDS`, which imports this module.
 """
 
 from __future__ import annotations
 
 import tomllib
+from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from .config import ConfigError
-from .kinds import KINDS, scenario_kind
 
-__all__ = ["builtin_scenarios", "resolve_scenario", "load_scenario_data"]
+__all__ = ["DEFAULT_KIND", "KIND_NAMES", "builtin_scenarios", "resolve_scenario",
+           "load_scenario_data", "scenario_kind"]
+
+#: The values of a scenario file's ``kind``, the default first (each is a key of
+#: :data:`mpd_pin.app.kinds.KINDS`).
+KIND_NAMES = ("energy", "dynamic2link")
+
+#: The kind of a scenario file that gives none.
+DEFAULT_KIND = KIND_NAMES[0]
+
+
+def scenario_kind(data: Mapping[str, Any]) -> str:
+    """The ``kind`` of parsed scenario TOML (``"energy"`` when it gives none)."""
+    return str(data.get("kind", DEFAULT_KIND))
 
 
 def builtin_scenarios() -> dict[str, Path]:
@@ -51,6 +66,6 @@ def load_scenario_data(path: Path) -> dict[str, Any]:
     except OSError as exc:
         raise ConfigError(f"cannot read scenario {str(path)!r}: {exc.strerror}") from None
     kind = scenario_kind(data)
-    if kind not in KINDS:
-        raise ConfigError(f"kind: {kind!r} is not one of {list(KINDS)}")
+    if kind not in KIND_NAMES:
+        raise ConfigError(f"kind: {kind!r} is not one of {list(KIND_NAMES)}")
     return data

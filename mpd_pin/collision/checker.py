@@ -29,6 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..arm.model import Arm
+from ..dynamics.payload import GEOMETRY_PREFIX, Payload, carried_payload, payload_arm
 from ..world import World
 from . import validity
 from .bounds import MotionBounds, displacement_bounds, motion_bounds, require_supported
@@ -97,6 +98,13 @@ class CollisionChecker:
         True (default): certified edges query nearly convex arm meshes through their
         convex hulls (:mod:`mpd_pin.collision.motion`, "Convex hulls"); False: on the
         meshes themselves (slower; for comparison). Exact checks always use the meshes.
+    payload:
+        A :class:`~mpd_pin.Payload` the arm carries (replacing any the arm already
+        carries): its box (``size``, m) is checked against every obstacle and hazard and
+        against the links on joints other than the one carrying it, its parent and its
+        children (:mod:`mpd_pin.dynamics.payload`); a part without ``size`` has no shape.
+        None (default): the arm as given (an arm from ``drive.with_payload(part).arm``
+        already carries its part). :attr:`arm` is then the arm carrying the part.
     """
 
     def __init__(
@@ -113,9 +121,12 @@ class CollisionChecker:
         edge_mode: str = "certified",
         min_step: float = MIN_STEP,
         certify_on_hulls: bool = True,
+        payload: Payload | None = None,
     ) -> None:
         if not isinstance(arm, Arm):
             raise ValueError(f"arm must be an mpd_pin.Arm, got {type(arm).__name__}")
+        if payload is not None:
+            arm = payload_arm(arm, payload)
         if world is None:
             world = World()
         if not isinstance(world, World):
@@ -265,8 +276,22 @@ class CollisionChecker:
 
     def copy(self) -> CollisionChecker:
         """An independent checker on the same arm and world (e.g. one per Python thread)."""
+        return self._on(self.arm)
+
+    @property
+    def payload(self) -> Payload | None:
+        """The :class:`~mpd_pin.Payload` the checked arm carries, or None."""
+        return carried_payload(self.arm)
+
+    def with_payload(self, part: Payload | None) -> CollisionChecker:
+        """A new checker with the same world and settings whose arm carries ``part``
+        (replacing any payload; None: the arm without payload). This one is unchanged."""
+        return self._on(payload_arm(self.arm, part))
+
+    def _on(self, arm: Arm) -> CollisionChecker:
+        """A new checker of ``arm`` with this checker's world and settings."""
         return CollisionChecker(
-            self.arm,
+            arm,
             self.world,
             include_hidden=self._include_hidden,
             self_collision=self._self_collision,
@@ -385,7 +410,8 @@ class CollisionChecker:
         collision, ``link`` the arm link holding the geometry (its frame, the URDF link:
         ``"link 'link3'"``) and ``other`` the obstacle, hazard or other link
         (``"obstacle 'divider'"``, ``"hazard 'zone'"``, ``"link 'link1'"``; unnamed
-        obstacles carry the World's names, ``box0``). A link with several geometries is
+        obstacles carry the World's names, ``box0``); a carried payload's box is
+        ``"payload 'name'"`` (:class:`~mpd_pin.Payload`). A link with several geometries is
         listed once per item it touches. Pairs count as in :meth:`is_free` (margin and
         enforced hazard clearances included); [] when ``q`` is free."""
         return [(a, b) for a, b, _ in self._named_collisions(q)]
@@ -397,12 +423,14 @@ class CollisionChecker:
         applies); at most ``limit`` such groups, then "and N more"; "" when ``q`` is free."""
         groups: dict[tuple[str, float], list[str]] = {}
         for a, b, m in self._named_collisions(q):
-            groups.setdefault((b, m), []).append(a.removeprefix("link "))
+            groups.setdefault((b, m), []).append(a)
         parts = []
-        for (b, m), links in list(groups.items())[:limit]:
-            one = len(links) == 1
-            who = f"link {links[0]}" if one else (
-                f"links {', '.join(links[:-1])} and {links[-1]}")
+        for (b, m), labels in list(groups.items())[:limit]:
+            one = len(labels) == 1
+            links = [a.removeprefix("link ") for a in labels if a.startswith("link ")]
+            names = ([f"link {links[0]}" if len(links) == 1 else "links " + _and(links)]
+                     if links else []) + [a for a in labels if not a.startswith("link ")]
+            who = _and(names)
             verb = ("touches" if one else "touch") if m <= 0.0 else (
                 f"{'comes' if one else 'come'} within {m:g} m of")
             parts.append(f"{who} {verb} {b}")
@@ -434,6 +462,8 @@ class CollisionChecker:
         ``"hazard 'name'"`` for the world's."""
         go = self.geom_model.geometryObjects[i]
         if i in self.arm_geometry_ids:
+            if go.name.startswith(GEOMETRY_PREFIX):
+                return f"payload {go.name.removeprefix(GEOMETRY_PREFIX)!r}"
             frame = int(go.parentFrame)
             if 0 <= frame < self.model.nframes:
                 return f"link {self.model.frames[frame].name!r}"
@@ -649,3 +679,8 @@ class CollisionChecker:
             for n in [*self.obstacle_pairs, *self.hazard_pairs]
             if self._include_hidden or self.world.is_known(n)
         ]
+
+
+def _and(items: list[str]) -> str:
+    """``"a"``, ``"a and b"``, ``"a, b and c"``."""
+    return items[0] if len(items) == 1 else f"{', '.join(items[:-1])} and {items[-1]}"

@@ -9,7 +9,9 @@ the arm's collision geometries, then every obstacle and hazard of the world
 * self-collision pairs: the arm's own pairs when it has some (example-robot-data
   robots come with their SRDF-filtered pairs), otherwise every pair of
   geometries on non-adjacent joints (planar arms: non-adjacent links; none for
-  two links).
+  two links). A payload's box (:mod:`mpd_pin.dynamics.payload`) is one more arm
+  geometry, on the joint that carries it: the same non-adjacent rule applies to it, and
+  an arm with its own pairs gets it paired with the links of non-adjacent joints.
 
 Hidden obstacles are in the model from the start; their pairs are simply
 inactive in the ``GeometryData`` until revealed, so revealing is a flag flip

@@ -66,7 +66,7 @@ import pinocchio as pin
 
 from .motor import Drive
 
-__all__ = ["EnergyBound", "MODES"]
+__all__ = ["EnergyBound", "MODES", "node_potential"]
 
 #: Gauss–Legendre nodes per edge (``per_joint``: half of them on each half of the edge).
 QUADRATURE_POINTS = 8
@@ -230,8 +230,6 @@ class EnergyBound:
         c = (np.maximum(S, 0.0) - eta * np.maximum(-S, 0.0)).sum(axis=0)
         if self.drive.supply.needs_potential:
             if potential is None:
-                from .supply import node_potential
-
                 potential = (node_potential(self.drive, Q0), node_potential(self.drive, Q1))
             c = c + (potential[0] - potential[1])
         return (1.0 - self.margin) * np.maximum(c, 0.0)
@@ -339,6 +337,30 @@ def _potential(drive: Drive, Q: np.ndarray) -> np.ndarray:
     model = drive.model
     data = model.createData()
     return np.array([pin.computePotentialEnergy(model, data, q) for q in Q])
+
+
+def node_potential(drive: Drive, Q: np.ndarray) -> np.ndarray:
+    """φ(q) = ρ PE(q) + Σ_k ½ L_k i_hold,k(q)² (J) for each row of ``Q`` (n, nq), rad.
+
+    From L di/dt = V − R i − n Ke q̇, summed over joints, a rest-to-rest edge u → v has
+
+        ∫ P dt = Σ_k ∫ R i_k² + ½ L_k (i_k(T)² − i_k(0)²) + Σ_k ρ_k ∫ q̇_k τ_k dt,
+
+    and with one ρ = Ke/Kt on every joint the last sum is ρ (ΔKE + ΔPE + friction) ≥
+    ρ ΔPE. The supply energy B⁺ − η B⁻ = ∫ P + (1 − η) B⁻ ≥ ∫ P, and i(0) is the
+    holding current at u, so c(u→v) ≥ φ(v) − φ(u) up to ½ L (i(T)² − i_hold(v)²), the
+    end current's tracking residual (checked on every evaluated edge,
+    :mod:`mpd_pin.planning.supply_costs`). Here beside the bound, which needs the same
+    gravity torque and potential energy (:mod:`mpd_pin.dynamics.supply` stays free of
+    Pinocchio). Where Ke/Kt differs between joints the smallest
+    ratio is used and the check is all that stands behind it (docs/design.md §3i).
+    """
+    Q = np.atleast_2d(np.asarray(Q, float))
+    if Q.shape[0] == 0:
+        return np.zeros(0)
+    rho = float(np.min(drive.Ke / drive.Kt))
+    i_hold = _gravity(drive, Q) / drive.torque_per_amp
+    return rho * _potential(drive, Q) + (0.5 * drive.L * i_hold**2).sum(axis=1)
 
 
 def _is_prismatic(model: pin.Model, j: int) -> bool:

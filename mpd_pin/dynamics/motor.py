@@ -18,6 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..arm.model import Arm
+from .payload import Payload, carried_payload, payload_arm
 from .supply import PER_JOINT, Supply
 
 __all__ = ["DCMotor", "PAPER_MOTOR", "SERVO_MOTOR", "Drive"]
@@ -153,6 +154,21 @@ class Drive:
     @property
     def nq(self) -> int:
         return self.arm.nq
+
+    @property
+    def payload(self) -> Payload | None:
+        """The :class:`~mpd_pin.Payload` the arm carries (:meth:`with_payload`), or None."""
+        return carried_payload(self.arm)
+
+    def with_payload(self, part: Payload | None) -> Drive:
+        """A new drive (same motors, gains, feed-forward and supply) whose arm carries
+        ``part`` (kg, m; :func:`mpd_pin.dynamics.payload.payload_arm`): its inertia is added
+        to the joint carrying the part's frame, on a deep copy of the model, and its box (if
+        it has a ``size``) to the arm's collision geometry. This drive is left untouched.
+        A payload replaces the one this drive may carry; ``None`` gives the drive without
+        payload. ValueError naming ``Payload.frame`` if the arm has no such moving frame.
+        """
+        return replace(self, arm=payload_arm(self.arm, part))
 
     @property
     def saturated(self) -> bool:

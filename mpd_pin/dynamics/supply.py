@@ -12,10 +12,11 @@ efficiency η. With the bus power P(t) = Σ_k V_k(t) i_k(t) (W), the energy draw
 B⁺ and B⁻ are integrated as two RK4 states beside E⁺ (:mod:`mpd_pin.dynamics.tracking`).
 
 With η > 0 an edge that lowers the arm can cost less than zero, which D* Lite, MPD*
-Lite and Dijkstra do not allow. :func:`node_potential` gives φ(q) with
-c(u→v) ≥ φ(v) − φ(u) for every rest-to-rest edge (docs/design.md §3i), so the search
-runs on c′ = c + φ(u) − φ(v) ≥ 0; every start-to-goal path changes by the same
-φ(start) − φ(goal), so the optimum is the same path.
+Lite and Dijkstra do not allow. :func:`~mpd_pin.dynamics.bound.node_potential` gives
+φ(q) with c(u→v) ≥ φ(v) − φ(u) for every rest-to-rest edge (docs/design.md §3i), so the
+search runs on c′ = c + φ(u) − φ(v) ≥ 0; every start-to-goal path changes by the same
+φ(start) − φ(goal), so the optimum is the same path. This module imports nothing of the
+package (nor Pinocchio).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["BUSES", "Supply", "PER_JOINT", "supply_energy", "energy_by_supply",
-           "node_potential", "bus_power", "supply_power"]
+           "bus_power", "supply_power"]
 
 #: Values of ``Supply.bus``.
 BUSES = ("per_joint", "shared")
@@ -103,30 +104,6 @@ def energy_by_supply(energy: np.ndarray, bus_energy: np.ndarray,
 def bus_power(V: np.ndarray, i: np.ndarray) -> np.ndarray:
     """P = Σ_k V_k i_k (W) over the last axis of voltages (V) and currents (A)."""
     return (np.asarray(V, float) * np.asarray(i, float)).sum(axis=-1)
-
-
-def node_potential(drive, Q: np.ndarray) -> np.ndarray:
-    """φ(q) = ρ PE(q) + Σ_k ½ L_k i_hold,k(q)² (J) for each row of ``Q`` (n, nq), rad.
-
-    From L di/dt = V − R i − n Ke q̇, summed over joints, a rest-to-rest edge u → v has
-
-        ∫ P dt = Σ_k ∫ R i_k² + ½ L_k (i_k(T)² − i_k(0)²) + Σ_k ρ_k ∫ q̇_k τ_k dt,
-
-    and with one ρ = Ke/Kt on every joint the last sum is ρ (ΔKE + ΔPE + friction) ≥
-    ρ ΔPE. The supply energy B⁺ − η B⁻ = ∫ P + (1 − η) B⁻ ≥ ∫ P, and i(0) is the
-    holding current at u, so c(u→v) ≥ φ(v) − φ(u) up to ½ L (i(T)² − i_hold(v)²), the
-    end current's tracking residual (checked on every evaluated edge,
-    :mod:`mpd_pin.planning.roadmap`). Where Ke/Kt differs between joints the smallest
-    ratio is used and the check is all that stands behind it (docs/design.md §3i).
-    """
-    from .bound import _gravity, _potential
-
-    Q = np.atleast_2d(np.asarray(Q, float))
-    if Q.shape[0] == 0:
-        return np.zeros(0)
-    rho = float(np.min(drive.Ke / drive.Kt))
-    i_hold = _gravity(drive, Q) / drive.torque_per_amp
-    return rho * _potential(drive, Q) + (0.5 * drive.L * i_hold**2).sum(axis=1)
 
 
 def supply_power(supply: Supply, P: np.ndarray) -> np.ndarray:

@@ -17,15 +17,15 @@ calls them edge by edge as the search asks. Neither imports the other's internal
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from ..dynamics.simulate import edge_outcomes
 from ..progress import bar, tqdm_class
-
-if TYPE_CHECKING:  # types only: roadmap.py imports this module
-    from .roadmap import Roadmap, RoadmapOptions
+from .options import RoadmapOptions
+from .resume import PartialCosts
+from .roadmap_data import Roadmap
 
 __all__ = ["SMALL_BATCH", "certify_pairs", "feasibility", "evaluate_edges", "edge_target",
            "complete_checks", "complete_roadmap"]
@@ -147,8 +147,6 @@ def complete_roadmap(cost, roadmap: Roadmap, options: RoadmapOptions,
     ``resume`` = (cache file, key), finished chunks are kept in ``<cache>.partial/`` as an
     eager build keeps them, and those of an interrupted completion are reused
     (:attr:`Roadmap.chunks_reused`; docs/design.md §4h). ``tqdm``: the bar class."""
-    from .resume import PartialCosts
-
     t0 = time.perf_counter()
     todo = np.flatnonzero(~roadmap.evaluated)
     reused = 0

@@ -23,7 +23,7 @@ import numpy as np
 from ..collision import CollisionChecker, edge_configurations
 from ..search import MPDStarLite, Planner
 from ..world import World
-from .roadmap import Roadmap
+from .roadmap_data import Roadmap
 
 __all__ = ["ReplanEvent", "ExecutionResult", "execute", "blocked_edges"]
 

@@ -34,8 +34,8 @@ from ..dynamics.cost import EnergyCost
 from ..progress import bar
 from ..search import Graph, Path, Planner
 from .evaluate import SMALL_BATCH, certify_pairs, edge_target, evaluate_edges
-from .roadmap import Roadmap, RoadmapOptions
-from .supply_costs import NegativeCostError
+from .options import RoadmapOptions
+from .roadmap_data import NegativeCostError, Roadmap
 
 __all__ = ["LazyEdges", "CostView", "LandmarkHeuristic", "SAFETY", "SMALL_BATCH",
            "evaluate_edges", "lazy_plan"]

@@ -19,17 +19,10 @@ import time
 import numpy as np
 
 from ..dynamics.cost import EnergyCost
-from .roadmap import (
-    EDGE_COUNTS,
-    Roadmap,
-    RoadmapOptions,
-    _candidate_edges,
-    _check_endpoint,
-    _cost_edges,
-    _free_pairs,
-    _neighbour_pairs,
-    _tqdm,
-)
+from ..progress import tqdm_class
+from .options import RoadmapOptions
+from .roadmap import candidate_edges, check_endpoint, cost_edges, free_pairs, neighbour_pairs
+from .roadmap_data import EDGE_COUNTS, Roadmap
 from .supply_costs import attach_supply
 
 __all__ = ["add_query", "SAME_NODE"]
@@ -64,8 +57,8 @@ def add_query(
     with ``evaluate``) the new edges are left unchecked. ValueError (one line) when start
     or goal is outside the joint limits or in collision."""
     arm = cost.drive.arm
-    start = _check_endpoint(arm, checker, start, "start")
-    goal = _check_endpoint(arm, checker, goal, "goal")
+    start = check_endpoint(arm, checker, start, "start")
+    goal = check_endpoint(arm, checker, goal, "goal")
     t0 = time.perf_counter()
     nodes = np.asarray(roadmap.nodes, dtype=float)
     n_old = nodes.shape[0]
@@ -83,15 +76,15 @@ def add_query(
     checked = roadmap.checked
     pairs_checked = 0
     if nodes.shape[0] > n_old:
-        pairs = _neighbour_pairs(nodes, options.k, arm.continuous_mask)
+        pairs = neighbour_pairs(nodes, options.k, arm.continuous_mask)
         pairs = pairs[pairs.max(axis=1) >= n_old]  # the pairs among old nodes exist already
         pairs_checked = len(pairs) if check_edges else 0
         if check_edges:
-            pairs = _free_pairs(checker, nodes, pairs, options.resolution)
+            pairs = free_pairs(checker, nodes, pairs, options.resolution)
         if evaluate:
-            new = _cost_edges(cost, nodes, pairs, options, _tqdm(show_progress), show_progress)
+            new = cost_edges(cost, nodes, pairs, options, tqdm_class(show_progress), show_progress)
         else:
-            new = _candidate_edges(nodes, pairs, options, arm)
+            new = candidate_edges(nodes, pairs, options, arm)
         src, dst = np.concatenate([src, new[0]]), np.concatenate([dst, new[1]])
         durations = np.concatenate([durations, new[2]])
         energy = np.concatenate([energy, np.asarray(new[3], float)])

@@ -22,13 +22,20 @@ from pathlib import Path
 
 import numpy as np
 
-from ..dynamics.simulate import EdgeOutcomes, _columns
+from ..dynamics.simulate import EdgeOutcomes
 
 __all__ = ["PARTIAL_FORMAT", "PartialCosts", "atomic_savez", "partial_dir"]
 
 #: Format tag of a partial chunk file (never a roadmap's ROADMAP_FORMAT).
 PARTIAL_FORMAT = "mpd_pin.roadmap-partial-chunk/2"  # 2: with bus_energy
 _FIELDS = tuple(f.name for f in fields(EdgeOutcomes))
+
+
+def _columns(nq: int) -> dict[str, int]:
+    """Columns of each :class:`EdgeOutcomes` field for ``nq`` joints (as
+    :meth:`EdgeOutcomes.zeros` lays them out)."""
+    empty = EdgeOutcomes.zeros(0, nq)
+    return {name: getattr(empty, name).shape[1] for name in _FIELDS}
 
 
 def atomic_savez(path: str | os.PathLike, **arrays: np.ndarray) -> Path:
@@ -88,7 +95,8 @@ class PartialCosts:
             return None
         K, nq = self.Q0.shape
         mask = np.zeros(K, dtype=bool)
-        out = {name: np.zeros((K, _columns(name, nq))) for name in _FIELDS}
+        zeros = EdgeOutcomes.zeros(K, nq)
+        out = {name: getattr(zeros, name) for name in _FIELDS}
         for f in sorted(self.dir.glob("chunk-*.npz")):
             data = self._read(f, K, nq)
             if data is None:
@@ -110,9 +118,10 @@ class PartialCosts:
             f.unlink(missing_ok=True)  # another build's leftover
             return None
         rows = data.get("rows")
+        columns = _columns(nq)
         if (rows is None or rows.ndim != 1 or rows.dtype.kind not in "iu" or not rows.size
                 or rows.min() < 0 or rows.max() >= K
-                or any(data.get(n) is None or data[n].shape != (rows.size, _columns(n, nq))
+                or any(data.get(n) is None or data[n].shape != (rows.size, columns[n])
                        for n in _FIELDS)):
             return None
         if str(data.get("inputs", "")) != _inputs_digest(

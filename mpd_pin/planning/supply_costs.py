@@ -3,69 +3,24 @@
 searches see costs >= 0 even when regeneration makes some edges pay back.
 
 * :func:`attach_supply` sets a roadmap's supply and potential: the physical φ(q) =
-  ρ PE(q) + Σ ½ L i_hold(q)² (:func:`~mpd_pin.dynamics.supply.node_potential`), plus, when
+  ρ PE(q) + Σ ½ L i_hold(q)² (:func:`~mpd_pin.dynamics.bound.node_potential`), plus, when
   every edge is evaluated, Johnson's shift (:func:`johnson_shift`);
 * :func:`reweighted` gives c + φ(src) − φ(dst) and refuses a real negative
   (:class:`NegativeCostError`; a lazy run then evaluates every edge, ``app/plan.py``).
+  Both are defined with the :class:`~mpd_pin.planning.roadmap_data.Roadmap` whose
+  :meth:`~mpd_pin.planning.roadmap_data.Roadmap.edge_costs` applies them, and named here
+  too.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
-from ..dynamics.supply import node_potential, supply_energy
-
-if TYPE_CHECKING:
-    from .roadmap import Roadmap
+from ..dynamics.bound import node_potential
+from ..dynamics.supply import supply_energy
+from .roadmap_data import NegativeCostError, Roadmap, reweighted
 
 __all__ = ["NegativeCostError", "attach_supply", "johnson_shift", "reweighted"]
-
-
-class NegativeCostError(ValueError):
-    """An evaluated edge costs less than the node potential allows: only possible with
-    regeneration and motors whose Ke/Kt differ between joints, and only corrected when every
-    edge is evaluated (Johnson's shift, :func:`attach_supply`; docs/design.md §3i).
-    ``edge``: its (source, destination) node ids; ``cost``: its supply energy (J)."""
-
-    def __init__(self, message: str, edge: tuple[int, int], cost: float) -> None:
-        super().__init__(message)
-        self.edge = edge
-        self.cost = cost
-
-
-def reweighted(c: np.ndarray, potential: np.ndarray | None, src: np.ndarray,
-               dst: np.ndarray) -> np.ndarray:
-    """c + φ(src) − φ(dst) (J), the search's cost of edges priced ``c`` (docs/design.md
-    §3i); ``c`` itself without a potential. NaN (not evaluated) and ∞ stay so.
-
-    The potential makes every cost ≥ 0 up to the end current's tracking residual; a
-    reweighted cost below 0 by more than round-off (1e-9 of the terms) raises
-    ValueError, since the searches need costs ≥ 0 and clipping would change the
-    optimum; round-off below 0 is set to 0."""
-    c = np.asarray(c, float)
-    if potential is None:
-        return c
-    phi0, phi1 = potential[src], potential[dst]
-    out = c + (phi0 - phi1)
-    with np.errstate(invalid="ignore"):
-        low = out < 0.0
-    if low.any():
-        tol = 1e-9 * (np.abs(c) + np.abs(phi0) + np.abs(phi1))
-        bad = low & (out < -tol)
-        if bad.any():
-            k = int(np.flatnonzero(bad)[0])
-            raise NegativeCostError(
-                f"an edge from node {int(src[k])} to node {int(dst[k])} costs "
-                f"{float(c[k]):.6g} J, below the potential difference "
-                f"{float(phi1[k] - phi0[k]):.6g} J that makes costs with regeneration "
-                "non-negative (docs/design.md §3i): the motors' Ke/Kt differ between "
-                "joints or the edge ends far from rest; use [roadmap] evaluation = "
-                "\"eager\" (which reweights every cost exactly), regeneration = 0 or "
-                "motors with one Ke/Kt", (int(src[k]), int(dst[k])), float(c[k]))
-        out = np.where(low, 0.0, out)
-    return out
 
 
 def attach_supply(roadmap: Roadmap, drive) -> Roadmap:
@@ -81,7 +36,7 @@ def attach_supply(roadmap: Roadmap, drive) -> Roadmap:
         phi = node_potential(drive, roadmap.nodes)
         known = roadmap.evaluated
         if known.all() and roadmap.num_edges:  # every cost known: make them all >= 0 exactly
-            c = supply_energy(supply, roadmap.energy, roadmap._bus())
+            c = supply_energy(supply, roadmap.energy, roadmap.bus_energies())
             phi = phi + johnson_shift(c + phi[roadmap.src] - phi[roadmap.dst], roadmap.src,
                                       roadmap.dst, roadmap.num_nodes)
         roadmap.potential = phi

@@ -170,16 +170,18 @@ class Planner(ABC):
 
     def _path_from_nodes(self, nodes: list[int]) -> Path:
         """Build a Path, summing edge costs left to right; checks each edge is finite."""
-        g = self.graph
-        sptr, sdst, scost = g.successor_view
+        sptr, sdst, scost = self._succ
+        inf = math.inf
         total = 0.0
-        for u, v in zip(nodes[:-1], nodes[1:], strict=True):
-            lo, hi = sptr[u], sptr[u + 1]
-            k = bisect_left(sdst, v, lo, hi)
-            if k == hi or sdst[k] != v or scost[k] == math.inf:
+        u = nodes[0]
+        for v in nodes[1:]:
+            hi = sptr[u + 1]
+            k = bisect_left(sdst, v, sptr[u], hi)
+            if k == hi or sdst[k] != v or scost[k] == inf:
                 raise SearchInvariantError(
                     f"{type(self).__name__}: extracted path uses edge {u} -> {v}, "
                     "which is missing or blocked"
                 )
             total += scost[k]
+            u = v
         return Path(nodes=nodes, cost=total)

@@ -83,16 +83,18 @@ class _BestFirst(Planner):
             a, b = sptr[u], sptr[u + 1]
             n_ev += b - a
             if hfun is None:
-                for v, c in zip(sdst[a:b], scost[a:b], strict=True):
-                    ng = gu + c
+                for j in range(a, b):  # index loop: cheaper than zip(..., strict=True)
+                    v = sdst[j]
+                    ng = gu + scost[j]
                     if ng < g[v]:
                         g[v] = ng
                         parent[v] = u
                         heappush(heap, (ng, ng, v))
                         n_q += 1
             else:
-                for v, c in zip(sdst[a:b], scost[a:b], strict=True):
-                    ng = gu + c
+                for j in range(a, b):
+                    v = sdst[j]
+                    ng = gu + scost[j]
                     if ng < g[v]:
                         g[v] = ng
                         parent[v] = u

@@ -33,12 +33,25 @@ Implementation notes (pitfalls of public implementations, docs/design.md §5):
 * The loop runs while ``top_key < key(start)`` or start is inconsistent (keys
   compared as tuples); the priority queue is ``heapq`` with lazy deletion: the
   current entry of a node is the very tuple stored in ``qkey[node]`` (identity).
+  Without a heuristic ``km`` stays 0, so a current entry's key is exact and the
+  "key grew, reinsert" test is made only with a heuristic.
+
+Speed (measured by bench/search.py and bench/queues.py). Values live in Python
+lists indexed by node id; the graph's CSR lists (ptr / neighbour / cost) are read
+by index, ``for j in range(a, b)``, which in CPython is much cheaper than
+``zip(nbr[a:b], cost[a:b], strict=True)`` (two slices, and the keyword sends every
+``zip`` call down a slow path). ``update_edge`` writes the cost itself for plain
+int ids and a float cost (``Graph.set_cost`` inlined; other inputs go through it)
+and computes the queue key inline; MPD* Lite follows and sums its path in one
+pass. Keys and sums use the same expressions in the same order everywhere, so
+the results are bit-identical to the straightforward code.
 """
 
 from __future__ import annotations
 
 import math
 import operator
+from bisect import bisect_left
 from heapq import heappop, heappush, heapreplace
 
 import numpy as np
@@ -60,6 +73,12 @@ class _DStarLiteCore(Planner):
     ) -> None:
         super().__init__(graph, start, goal, heuristic)
         n = graph.num_nodes
+        # the graph's live successor CSR lists, bound once (read-only by contract)
+        self._sptr, self._sdst, self._scost = self._succ
+        # update_edge writes both cost orders itself (Graph.set_cost inlined): the graph's
+        # predecessor-order costs and edge-id map, also live lists never replaced
+        self._pcost = graph.predecessor_view.cost
+        self._e2p = graph._e2p
         self._g: list[float] = [_INF] * n
         self._gh: list[int] = [0] * n  # hop count of g (0 when g is inf)
         self._rhs: list[float] = [_INF] * n
@@ -75,31 +94,30 @@ class _DStarLiteCore(Planner):
         self._update_vertex(goal_)
 
     # --------------------------------------------------------------- internals
-    def _hval(self, s: int) -> float:
-        hc = self._hcache
-        hv = hc[s]
-        if hv is None:
-            hv = hc[s] = self.heuristic(self._start, s)
-        return hv
+    def _update_vertex(self, s: int) -> int:
+        """Put ``s`` in the queue iff inconsistent; returns the number of heap pushes.
 
-    def _key(self, s: int) -> tuple:
-        """Heap entry ``(k1, hops, k2, s)``; the same expressions as the inlined copies."""
+        Its heap entry is ``(k1, hops, k2, s)`` with ``k2, hops = min(g, rhs)(s)`` as
+        (cost, hops) and ``k1 = k2 + h(start, s) + km`` (``k2 + km`` without a heuristic).
+        The hot loops inline this with the same expressions in the same order, so a key
+        is bit-identical wherever it is computed."""
         g, r = self._g[s], self._rhs[s]
         gh, rh = self._gh[s], self._rh[s]
+        if g == r and gh == rh:
+            self._qkey[s] = None
+            return 0
         if r < g or (r == g and rh < gh):
             mc, mh = r, rh
         else:
             mc, mh = g, gh
-        if self._hcache is None:
-            return (mc + self._km, mh, mc, s)
-        return (mc + self._hval(s) + self._km, mh, mc, s)
-
-    def _update_vertex(self, s: int) -> int:
-        """Put ``s`` in the queue iff inconsistent; returns the number of heap pushes."""
-        if self._g[s] == self._rhs[s] and self._gh[s] == self._rh[s]:
-            self._qkey[s] = None
-            return 0
-        k = self._key(s)
+        hc = self._hcache
+        if hc is None:
+            k = (mc + self._km, mh, mc, s)
+        else:
+            hv = hc[s]
+            if hv is None:
+                hv = hc[s] = self.heuristic(self._start, s)
+            k = (mc + hv + self._km, mh, mc, s)
         self._qkey[s] = k
         heappush(self._heap, k)
         return 1
@@ -109,14 +127,15 @@ class _DStarLiteCore(Planner):
 
         Returns the number of edge costs read.
         """
-        sptr, sdst, scost = self._succ
         g, gh = self._g, self._gh
-        a, b = sptr[s], sptr[s + 1]
+        a, b = self._sptr[s], self._sptr[s + 1]
+        sdst, scost = self._sdst, self._scost
         best = _INF
         bh = 0
         bp = -1
-        for v, c in zip(sdst[a:b], scost[a:b], strict=True):
-            t = c + g[v]
+        for j in range(a, b):  # index loop: cheaper than zip(..., strict=True) of two slices
+            v = sdst[j]
+            t = scost[j] + g[v]
             if t < best:
                 best = t
                 bh = gh[v] + 1
@@ -148,6 +167,7 @@ class _DStarLiteCore(Planner):
         """ComputeShortestPath of optimized D* Lite, with pointer bookkeeping."""
         gr = self.graph
         pptr, psrc, pcost = gr.predecessor_view
+        sptr, sdst, scost = self._sptr, self._sdst, self._scost
         g, gh, rhs, rh, ptr = self._g, self._gh, self._rhs, self._rh, self._ptr
         qkey, heap = self._qkey, self._heap
         start = self._start
@@ -161,7 +181,8 @@ class _DStarLiteCore(Planner):
             # drop stale heap entries (lazy deletion)
             while heap:
                 top = heap[0]
-                if qkey[top[3]] is top:
+                u = top[3]
+                if qkey[u] is top:
                     break
                 heappop(heap)
                 n_q += 1
@@ -172,25 +193,24 @@ class _DStarLiteCore(Planner):
                 # start consistent: stop once top_key >= key(start); -1 makes equal keys stop
                 if not top < (gs + km, gh[start], gs, -1):
                     break
-            u = top[3]
             gu, ru, ghu, rhu = g[u], rhs[u], gh[u], rh[u]
             over = ru < gu or (ru == gu and rhu < ghu)
-            if over:
-                mc, mh = ru, rhu
-            else:
-                mc, mh = gu, ghu
-            if hc is None:
-                knew = (mc + km, mh, mc, u)
-            else:
+            # Without a heuristic km stays 0 and a current entry's key is exact (every change
+            # of g/rhs re-queues the node), so only keys with a heuristic can have grown.
+            if hc is not None:
+                if over:
+                    mc, mh = ru, rhu
+                else:
+                    mc, mh = gu, ghu
                 hv = hc[u]
                 if hv is None:
                     hv = hc[u] = hfun(start, u)
                 knew = (mc + hv + km, mh, mc, u)
-            if top < knew:  # key grew since insertion (km changed): reinsert
-                qkey[u] = knew
-                heapreplace(heap, knew)
-                n_q += 1
-                continue
+                if top < knew:  # key grew since insertion (km changed): reinsert
+                    qkey[u] = knew
+                    heapreplace(heap, knew)
+                    n_q += 1
+                    continue
             heappop(heap)
             n_q += 1
             qkey[u] = None
@@ -201,8 +221,9 @@ class _DStarLiteCore(Planner):
                 g[u] = ru
                 gh[u] = rhu
                 nh = rhu + 1
-                for s, c in zip(psrc[a:b], pcost[a:b], strict=True):
-                    t = c + ru
+                for j in range(a, b):
+                    s = psrc[j]
+                    t = pcost[j] + ru
                     r = rhs[s]
                     if t < r or (t == r and nh < rh[s]):
                         # better support through u (the goal's (0, 0) is never beaten)
@@ -236,9 +257,47 @@ class _DStarLiteCore(Planner):
                 g[u] = _INF
                 gh[u] = 0
                 for s in psrc[a:b]:
-                    if ptr[s] == u:  # rhs(s) was supported by u's old g
-                        n_ev += recompute(s)
-                        n_q += update_vertex(s)
+                    if ptr[s] != u:
+                        continue
+                    # rhs(s) was supported by u's old g: _recompute_rhs(s) inlined
+                    a2, b2 = sptr[s], sptr[s + 1]
+                    n_ev += b2 - a2
+                    best = _INF
+                    bh = 0
+                    bp = -1
+                    for j in range(a2, b2):
+                        v = sdst[j]
+                        t = scost[j] + g[v]
+                        if t < best:
+                            best = t
+                            bh = gh[v] + 1
+                            bp = v
+                        elif t == best and bp >= 0 and gh[v] + 1 < bh:
+                            bh = gh[v] + 1
+                            bp = v
+                    rhs[s] = best
+                    rh[s] = bh
+                    ptr[s] = bp
+                    # _update_vertex(s) inlined
+                    gsv = g[s]
+                    ghs = gh[s]
+                    if gsv == best and ghs == bh:
+                        qkey[s] = None
+                        continue
+                    if best < gsv or (best == gsv and bh < ghs):
+                        mc, mh = best, bh
+                    else:
+                        mc, mh = gsv, ghs
+                    if hc is None:
+                        k = (mc + km, mh, mc, s)
+                    else:
+                        hv = hc[s]
+                        if hv is None:
+                            hv = hc[s] = hfun(start, s)
+                        k = (mc + hv + km, mh, mc, s)
+                    qkey[s] = k
+                    heappush(heap, k)
+                    n_q += 1
                 n_q += update_vertex(u)
         self._add_work(n_exp, n_ev, n_q)
 
@@ -249,28 +308,67 @@ class _DStarLiteCore(Planner):
         Costs: >= 0, ``math.inf`` = blocked. The work is done here and in the
         next :meth:`plan` (which processes the queue).
         """
-        self._sync_start()
-        gr = self.graph
-        k = gr.set_cost(u, v, cost)  # validates; k indexes the successor view
-        u = int(u)
-        v = int(v)
+        if self._start != self._s_last:
+            self._sync_start()
+        # Graph.set_cost inlined for the common case: plain int ids, the edge found among u's
+        # successors, a float cost >= 0 (NaN fails the comparison). Anything else goes
+        # through set_cost, which validates and raises its errors.
+        k = -1
+        if type(u) is int and type(v) is int and type(cost) is float and cost >= 0.0:
+            sptr = self._sptr
+            if 0 <= u < len(sptr) - 1:
+                sdst = self._sdst
+                hi = sptr[u + 1]
+                k = bisect_left(sdst, v, sptr[u], hi)
+                if k == hi or sdst[k] != v:
+                    k = -1  # no such edge (or v out of range): set_cost raises
+        if k >= 0:
+            c = cost + 0.0  # turns -0.0 into 0.0
+            self._scost[k] = c
+            self._pcost[self._e2p[k]] = c
+        else:
+            k = self.graph.set_cost(u, v, cost)  # validates; k indexes the successor view
+            c = self._scost[k]
+            u = int(u)
+            v = int(v)
         if u == self.goal:
             return
-        c = self._succ.cost[k]
-        t = c + self._g[v]
-        nh = self._gh[v] + 1
-        r = self._rhs[u]
-        n_ev = 0
-        if t < r or (t == r and nh < self._rh[u]):
-            self._rhs[u] = t
-            self._rh[u] = nh
+        g, rhs = self._g, self._rhs
+        t = c + g[v]
+        r = rhs[u]
+        if t < r or (t == r and self._gh[v] + 1 < self._rh[u]):
+            rhs[u] = r = t
+            self._rh[u] = nh = self._gh[v] + 1
             self._ptr[u] = v
+            n_ev = 1
         elif self._ptr[u] == v:
-            n_ev = self._recompute_rhs(u)
+            n_ev = 1 + self._recompute_rhs(u)
+            r = rhs[u]
+            nh = self._rh[u]
         else:
             return  # not the support of rhs(u) and not better: nothing changes
-        n_q = self._update_vertex(u)
-        self._add_work(0, n_ev + 1, n_q)
+        st = self.stats
+        st.edge_evaluations += n_ev
+        # _update_vertex(u) inlined; (r, nh) is now (rhs, rh)(u)
+        gu, ghu = g[u], self._gh[u]
+        if gu == r and ghu == nh:
+            self._qkey[u] = None
+            return
+        if r < gu or (r == gu and nh < ghu):
+            mc, mh = r, nh
+        else:
+            mc, mh = gu, ghu
+        hc = self._hcache
+        if hc is None:
+            key = (mc + self._km, mh, mc, u)
+        else:
+            hv = hc[u]
+            if hv is None:
+                hv = hc[u] = self.heuristic(self._start, u)
+            key = (mc + hv + self._km, mh, mc, u)
+        self._qkey[u] = key
+        heappush(self._heap, key)
+        st.queue_operations += 1
 
     def update_edges(self, changes) -> None:
         """Set the costs of many edges, then repair each changed tail's rhs once
@@ -331,19 +429,23 @@ class _DStarLiteCore(Planner):
 
     def plan(self) -> Path:
         """Repair (or, the first time, compute) the solution and return the path."""
-        self._sync_start()
+        if self._start != self._s_last:
+            self._sync_start()
         self._compute_shortest_path()
         start = self._start
         if self._g[start] == _INF:
             self._close_plan_stats()
             raise NoPathError(f"no path from node {start} to node {self.goal}")
-        nodes = self._extract()
-        path = self._path_from_nodes(nodes)
+        path = self._extract_path()
         self._close_plan_stats()
         return path
 
     def _extract(self) -> list[int]:
         raise NotImplementedError
+
+    def _extract_path(self) -> Path:
+        """The path from the start: :meth:`_extract`, then summed by ``_path_from_nodes``."""
+        return self._path_from_nodes(self._extract())
 
     def _loop_error(self, nodes: list[int]) -> SearchInvariantError:
         return SearchInvariantError(
@@ -390,6 +492,33 @@ class MPDStarLite(_DStarLiteCore):
                 raise self._loop_error(nodes)
         return nodes
 
+    def _extract_path(self) -> Path:
+        """Follow the pointers and sum the edge costs left to right in one pass.
+
+        The same nodes and the same float sum as ``_path_from_nodes(_extract())``; on any
+        inconsistency it falls back to those two, which raise the error."""
+        ptr = self._ptr
+        sptr, sdst, scost = self._sptr, self._sdst, self._scost
+        goal = self.goal
+        s = self._start
+        nodes = [s]
+        append = nodes.append
+        left = self.graph.num_nodes  # steps allowed before it must be a loop
+        total = 0.0
+        while s != goal:
+            v = ptr[s]
+            left -= 1
+            if v < 0 or left <= 0:
+                return self._path_from_nodes(self._extract())
+            hi = sptr[s + 1]
+            k = bisect_left(sdst, v, sptr[s], hi)
+            if k == hi or sdst[k] != v or scost[k] == _INF:
+                return self._path_from_nodes(self._extract())
+            total += scost[k]
+            append(v)
+            s = v
+        return Path(nodes=nodes, cost=total)
+
 
 class DStarLite(_DStarLiteCore):
     """D* Lite (Koenig & Likhachev 2002): path by g-gradient, argmin of cost + g.
@@ -412,8 +541,9 @@ class DStarLite(_DStarLiteCore):
             best = _INF
             bh = 0
             bp = -1
-            for v, c in zip(sdst[a:b], scost[a:b], strict=True):
-                t = c + g[v]
+            for j in range(a, b):
+                v = sdst[j]
+                t = scost[j] + g[v]
                 if t < best or (t == best and bp >= 0 and gh[v] + 1 < bh):
                     best = t
                     bh = gh[v] + 1

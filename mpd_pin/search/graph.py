@@ -282,8 +282,21 @@ class Graph:
         Returns the edge's index in :attr:`successor_view`. Planners holding this graph are
         *not* notified: use ``planner.update_edge``.
         """
-        k = self._edge_id(u, v)
-        c = _check_cost(cost, f"edge {u} -> {v}")
+        # fast path (replanning calls this once per changed edge): plain ints in range and
+        # a float >= 0 (NaN fails the comparison); anything else takes the checked path
+        n = self._n
+        if type(u) is int and type(v) is int and 0 <= u < n and 0 <= v < n:
+            sptr, sdst = self._sptr, self._sdst
+            hi = sptr[u + 1]
+            k = bisect_left(sdst, v, sptr[u], hi)
+            if k == hi or sdst[k] != v:
+                raise KeyError(f"no edge {u} -> {v} in the graph")
+        else:
+            k = self._edge_id(u, v)
+        if type(cost) is float and cost >= 0.0:
+            c = cost + 0.0  # turns -0.0 into 0.0
+        else:
+            c = _check_cost(cost, f"edge {u} -> {v}")
         self._scost[k] = c
         self._pcost[self._e2p[k]] = c
         return k

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -57,7 +57,7 @@ from .energy import (
 from .screen import joint_limits
 from .spline import ViaSpline, unit_knots, via_spline
 
-__all__ = ["OptimizeSettings", "OptimizedMotion", "optimize_curve", "optimize_motion",
+__all__ = ["OptimizeSettings", "OptimizedMotion", "optimize_curve", "optimize_motion", "polish",
            "spline_curve", "fit_curve", "seed_curve"]
 
 DEGREE = 5
@@ -77,7 +77,13 @@ class OptimizeSettings:
     tolerance: SLSQP's ftol on the energy relative to the seed's; sharpness: of the
     softplus, relative to the seed's peak power; retries: solves again, with collision
     samples added where the last one came too close between samples, after a failed
-    check; budget: CPU seconds a solve may take before it stops where it is.
+    check; budget: SLSQP iterations one seed's solves may take in all before they stop
+    where they are (iterations, not seconds, so that a result never depends on the
+    machine's speed or load); query_budget: iterations all seeds of one query share (a
+    later seed gets what the earlier ones left, and none starts with less than a tenth of
+    it); cpu_limit: CPU seconds after which a seed stops regardless, a guard against
+    pathological solves only (never reached on the bench's queries); polish: iterations
+    of one more solve from the query's best optimum, with a fresh SLSQP model (0: none).
     """
 
     control_points: int = 0
@@ -93,7 +99,10 @@ class OptimizeSettings:
     tolerance: float = 1e-5
     sharpness: float = 200.0
     retries: int = 3
-    budget: float = 4.0
+    budget: int = 240
+    query_budget: int = 400
+    cpu_limit: float = 6.0
+    polish: int = 120
 
 
 @dataclass
@@ -106,6 +115,17 @@ class OptimizedMotion:
 
 
 # ----------------------------------------------------------------------------- basis
+def _difference(n: int, h: float) -> np.ndarray:
+    """D (n, n): d/dt on n samples h s apart, central inside and second-order one-sided
+    at the ends, as ``np.gradient(f, h, edge_order=2)`` (1/s)."""
+    D = np.zeros((n, n))
+    r = np.arange(1, n - 1)
+    D[r, r - 1], D[r, r + 1] = -0.5, 0.5
+    D[0, :3] = (-1.5, 2.0, -0.5)
+    D[-1, -3:] = (0.5, -2.0, 1.5)
+    return D / h
+
+
 def _knots(n_c: int) -> np.ndarray:
     """Clamped uniform knots on [0, 1] for ``n_c`` control points of degree 5."""
     inner = np.linspace(0.0, 1.0, n_c - DEGREE + 1)
@@ -165,6 +185,7 @@ class _Problem:
         w[1:-1:2], w[2:-1:2] = 4.0, 2.0
         self.w = w * (self.T / (3.0 * S))  # Simpson weights in s
         self.h = self.T / S
+        self.Dt = _difference(S + 1, self.h).T  # Dᵀ of d/dt along the samples
         self.B = [_basis(self.knots, n_c, self.tau, nu) / self.T**nu for nu in range(4)]
         self.Bf = [b[:, 3:-3] for b in self.B]
         n_col = settings.collision_samples or 4 * (n_c - DEGREE)
@@ -222,20 +243,14 @@ class _Problem:
                        "P": V * i, "dq": dq, "dv": dv, "M": M}
         return self._cache
 
-    def _dtau_dx(self, d: dict) -> np.ndarray:
-        """∂τ_ff/∂x (S+1, nq, nf, nq): joint a's torque at sample s against the free
-        control point i of joint b."""
-        if "dtau" in d:
-            return d["dtau"]
-        B0, B1, B2 = self.Bf[0], self.Bf[1], self.Bf[2]
-        G = (d["dq"][:, :, None, :] * B0[:, None, :, None]
-             + d["dv"][:, :, None, :] * B1[:, None, :, None]
-             + d["M"][:, :, None, :] * B2[:, None, :, None])
-        damp = self.drive.damping
-        for a in range(self.nq):
-            G[:, a, :, a] += damp[a] * B1
-        d["dtau"] = G
-        return G
+    def _dtau_rows(self, d: dict, s: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """∂τ_ff,k(t_s)/∂x (n, nf·nq) for the (sample, joint) rows ``(s, k)``: joint k's
+        torque at sample s against every free control point."""
+        B0, B1, B2 = self.Bf[0][s], self.Bf[1][s], self.Bf[2][s]  # (n, nf)
+        G = (B0[:, :, None] * d["dq"][s, k][:, None, :] + B1[:, :, None] * d["dv"][s, k][:, None, :]
+             + B2[:, :, None] * d["M"][s, k][:, None, :])  # (n, nf, nq)
+        G[np.arange(len(s)), :, k] += self.drive.damping[k][:, None] * B1
+        return G.reshape(len(s), -1)
 
     def _soft(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """softplus(P) (W) and its slope, sharpness ``beta`` (1/W)."""
@@ -260,18 +275,26 @@ class _Problem:
         return self._power_weights(self._dynamics(x)["P"])[0]
 
     def energy_grad(self, x: np.ndarray) -> np.ndarray:
+        """∂E/∂x by the adjoint of the chain x → (q, q̇, q̈, q⃛) → τ_ff, τ̇_ff → (i, V) → P:
+
+            ∂E/∂x = Σ_s,a γ_sa ∂τ_sa/∂x + Σ_s w_P,sa i_sa K_e,a ∂q̇_sa/∂x,
+            γ = w_P (V + R i)/K_t + Dᵀ (w_P i L/K_t),
+
+        with D the second-order difference along the samples (τ̇ = D τ, as
+        ``np.gradient``) and ∂τ/∂x = ∂τ/∂q B₀ + ∂τ/∂q̇ B₁ + M B₂ (+ damping B₁), so the
+        joints' sums come before the basis matrices: O(S nq²), not O(S nq² nf)."""
         d = self._dynamics(x)
         _, wP = self._power_weights(d["P"])  # (S+1, nq)
-        G = self._dtau_dx(d)  # ∂τ/∂x
-        kt, drv = self.drive.torque_per_amp, self.drive
-        dG = np.gradient(G, self.h, axis=0, edge_order=2)  # ∂τ̇/∂x = d/dt ∂τ/∂x
-        di = G / kt[None, :, None, None]
-        dV = (drv.R / kt)[None, :, None, None] * G + (drv.L / kt)[None, :, None, None] * dG
-        B1 = self.Bf[1]
-        for a in range(self.nq):
-            dV[:, a, :, a] += drv.emf_per_rad_s[a] * B1
-        dP = dV * d["i"][:, :, None, None] + d["V"][:, :, None, None] * di
-        return np.einsum("sa,saib->ib", wP, dP).ravel()
+        drv = self.drive
+        kt = drv.torque_per_amp
+        i, V = d["i"], d["V"]
+        gamma = wP * (V + drv.R * i) / kt + self.Dt @ (wP * i * drv.L / kt)
+        u = np.einsum("sa,sab->sb", gamma, d["dq"])
+        w = np.einsum("sa,sab->sb", gamma, d["M"])
+        v = (np.einsum("sa,sab->sb", gamma, d["dv"]) + gamma * drv.damping
+             + wP * i * drv.emf_per_rad_s)
+        B0, B1, B2 = self.Bf[0], self.Bf[1], self.Bf[2]
+        return (B0.T @ u + B1.T @ v + B2.T @ w).ravel()
 
     # -- constraints (all as g(x) ≥ 0)
     @staticmethod
@@ -320,9 +343,8 @@ class _Problem:
     def effort_jac(self, x: np.ndarray) -> np.ndarray:
         if not len(self.effort_rows):
             return np.zeros((0, self.nf * self.nq))
-        G = self._dtau_dx(self._dynamics(x))
         s, k = self.effort_rows[:, 0], self.effort_rows[:, 1]
-        J = G[s, k].reshape(len(s), -1)
+        J = self._dtau_rows(self._dynamics(x), s, k)
         return np.vstack([-J, J])
 
     def add_samples(self, x: np.ndarray, count: int = 400) -> int:
@@ -403,10 +425,11 @@ FEASIBLE = 1e-4
 
 
 def _solve(prob: _Problem, x: np.ndarray, settings: OptimizeSettings,
-           deadline: float = np.inf) -> tuple[np.ndarray, dict]:
+           deadline: float = np.inf, iterations: int = 10**9) -> tuple[np.ndarray, dict]:
     """Rounds of SLSQP from ``x``. Each round adds the (sample, pair) rows, velocity and
     effort rows its start point comes near; the solve ends when a round converges and its
-    end point adds no collision row. Returns the last iterate and counters."""
+    end point adds no collision row, or after ``iterations`` SLSQP iterations in all (or
+    past the CPU time ``deadline``). Returns the last iterate and counters."""
     iters, status, msg = 0, 0, ""
     best: list = [np.inf, None]  # energy, iterate
     for _ in range(max(1, int(settings.rounds))):
@@ -434,18 +457,27 @@ def _solve(prob: _Problem, x: np.ndarray, settings: OptimizeSettings,
                 best[:] = [prob.energy(z), np.array(z, float)]
 
         if time.process_time() > deadline:
-            status, msg = 9, "CPU budget used up"
+            status, msg = 9, "CPU limit reached"
+            break
+        if iters >= iterations:
+            status, msg = 9, "iteration budget used up"
             break
         keep(x, inside=False)
         res = minimize(lambda z, k=scale: prob.energy(z) / k, x,
                        jac=lambda z, k=scale: prob.energy_grad(z) / k, method="SLSQP",
                        bounds=prob.bounds(), constraints=cons, callback=keep,
-                       options={"maxiter": int(settings.max_iterations),
+                       options={"maxiter": int(min(settings.max_iterations,
+                                                   iterations - iters)),
                                 "ftol": float(settings.tolerance)})
         iters += int(res.nit)
         status, msg = int(res.status), str(res.message)
         x = np.asarray(res.x, float)
         keep(x, inside=False)
+        if status not in (0, 9) and best[1] is not None:
+            # SLSQP's subproblem failed ("more than 3n iterations in LSQ subproblem",
+            # "positive directional derivative"): its last iterate can be far worse than
+            # where it started; go on from the cheapest iterate within every row instead
+            x = best[1].copy()
     info = {"iterations": iters, "solver_status": status, "solver_message": msg}
     if best[1] is not None and status != 0:  # stopped early: its last iterate may be outside
         x = best[1]
@@ -523,11 +555,18 @@ def _optimize(drive, checker, T, options, settings, seed_motion, distances, C0, 
     kept = None
     x = x0
     for attempt in range(int(settings.retries) + 1):
-        if attempt and time.process_time() > c0 + settings.budget:
-            rec["why"] = rec.get("why", "") + f"; CPU budget ({settings.budget:g} s) used up"
+        used = rec.get("iterations", 0)
+        if attempt and (used >= settings.budget
+                        or time.process_time() > c0 + settings.cpu_limit):
+            rec["why"] = rec.get("why", "") + (f"; iteration budget ({settings.budget}) used up"
+                                               if used >= settings.budget else
+                                               f"; CPU limit ({settings.cpu_limit:g} s) reached")
             break
+        if attempt and prob.energy(x) > rec["screen_energy_in"]:
+            x = x0  # a failed solve that ended above its seed: again from the seed
         try:
-            x, info = _solve(prob, x, settings, deadline=c0 + settings.budget)
+            x, info = _solve(prob, x, settings, deadline=c0 + settings.cpu_limit,
+                             iterations=int(settings.budget) - used)
         except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
             rec.update(kept_seed=True, why=f"solver failed: {exc}")
             break
@@ -571,6 +610,24 @@ def _optimize(drive, checker, T, options, settings, seed_motion, distances, C0, 
         return OptimizedMotion(None, rec)
     rec["kept_seed"] = False
     return OptimizedMotion(kept, rec)
+
+
+def polish(drive: Drive, checker: Any, out: OptimizedMotion, options: Any,
+           settings: OptimizeSettings | None = None, distances: Any = None) -> OptimizedMotion:
+    """One solve more from an optimum ``out.motion``, on its own control polygon with a
+    fresh SLSQP model and ``settings.polish`` iterations (docs/design.md §9g): SLSQP's
+    BFGS model can meet ``ftol`` with a small step short of the optimum. Returns the
+    cheaper of the two (``record["polish"]`` says what the polish found)."""
+    settings = settings or OptimizeSettings()
+    if out.motion is None or not settings.polish:
+        return out
+    won = out.motion
+    again = optimize_curve(drive, checker, seed_curve(drive, won), won.duration, options,
+                           settings=replace(settings, budget=int(settings.polish)),
+                           seed_motion=won, distances=distances)
+    rec = {**out.record, "polish": again.record,
+           "cpu_seconds": out.record["cpu_seconds"] + again.record["cpu_seconds"]}
+    return OptimizedMotion(again.motion or won, rec)
 
 
 def _sampled_failure(checker: Any, curve: ViaSpline, samples: int = 400) -> float | None:
@@ -660,6 +717,7 @@ def optimize_motion(
     if out.motion is None:
         base.optimization = out.record
         return base
+    out = polish(drive, checker, out, options, settings)
     out.motion.fastest = t_min
     out.motion.optimization = out.record
     out.motion.alternative = base

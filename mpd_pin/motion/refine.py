@@ -256,7 +256,7 @@ def _optimize_best(drive: Drive, checker: Any, options: Any, motion: MotionOptio
     polyline); the cheapest certified, simulated result that beats its seed becomes
     ``by_name[OPTIMIZED]``. Returns the winner's name and ``motion.optimization``."""
     from ..collision.distance import PairDistances
-    from .optimize import optimize_curve, seed_curve
+    from .optimize import OptimizedMotion, OptimizeSettings, optimize_curve, polish, seed_curve
 
     order = sorted(feasible, key=lambda n: by_name[n].total_energy)
     cheapest = by_name[order[0]].total_energy
@@ -264,11 +264,22 @@ def _optimize_best(drive: Drive, checker: Any, options: Any, motion: MotionOptio
              ][: motion.seeds]
     runs, winner = [], None
     distances = None if checker is None else PairDistances(checker)
+    settings = OptimizeSettings()
+    left = settings.query_budget
     for name in order:
         me = by_name[name]
+        if left < 0.1 * settings.query_budget:
+            runs.append({"seed": name, "seed_execution": me.execution, "kept_seed": True,
+                         "why": f"not optimised: the query's iteration budget "
+                                f"({settings.query_budget}) was used up",
+                         "cpu_seconds": 0.0, "seconds": 0.0})
+            continue
         shown.set_postfix_str(name)
         out = optimize_curve(drive, checker, seed_curve(drive, me), me.duration, options,
-                             seed_motion=me, distances=distances)
+                             seed_motion=me, distances=distances,
+                             settings=dataclasses.replace(settings,
+                                                           budget=min(settings.budget, left)))
+        left -= int(out.record.get("iterations", 0))
         runs.append({"seed": name, "seed_execution": me.execution, **out.record})
         if out.motion is not None and (winner is None
                                         or out.motion.total_energy < winner[1].total_energy):
@@ -276,6 +287,12 @@ def _optimize_best(drive: Drive, checker: Any, options: Any, motion: MotionOptio
         shown.update(1)
     rec: dict[str, Any] = {"runs": runs, "cpu_seconds": float(sum(r["cpu_seconds"]
                                                                     for r in runs))}
+    if winner is not None:
+        out = polish(drive, checker, OptimizedMotion(winner[1], {"cpu_seconds": 0.0}),
+                     options, settings, distances)
+        rec["polish"] = out.record.get("polish")
+        rec["cpu_seconds"] += float(out.record["cpu_seconds"])
+        winner = (winner[0], out.motion)
     if winner is None:
         rec.update(kept_seed=True, seed=best, energy_before=by_name[best].total_energy,
                    energy_after=by_name[best].total_energy,
@@ -296,13 +313,14 @@ def _stretch_front(drive: Drive, options: Any, motion: MotionOptions, m: MotionE
                    seed: MotionEnergy, name: str) -> None:
     """Give the optimised motion ``m`` its own energy–time front (docs/design.md §9c): the
     fastest feasible stretch of its curve, the screen from there to the longer of its
-    duration and its seed's longest (within ``max_duration``), and 4 durations simulated
-    besides its own; and its duration rule (its seed's duration)."""
+    duration and its seed's longest (within ``max_duration``), and its two ends simulated
+    besides its own duration; and its duration rule (its seed's duration)."""
 
     longest = max(float(seed.longest or seed.duration), float(m.duration))
     if motion.max_duration is not None:
         longest = max(min(longest, float(motion.max_duration)), float(m.duration))
-    p = stretch_front(drive, m.curve, options, longest, include=(float(m.duration),))
+    p = stretch_front(drive, m.curve, options, longest, points=2,
+                      include=(float(m.duration),))
     m.fastest = float(min(p.lower(), m.duration))
     m.velocity_fastest = float(p.t_velocity)
     m.longest = float(p.hi)

@@ -357,7 +357,7 @@ def targets(rows: list[dict]) -> None:
            f"max {top:.2f} % over {len(rl)} queries")
     il = [r["independent_less"] for r in rows if r["arm"] == "panda"]
     med, top = _med(il), max(il, default=NAN)
-    target("an independent optimisation (trust-constr, finer spline) finds ≤ 2 % less on "
+    target("an independent optimisation (L-BFGS-B penalty, finer spline) finds ≤ 2 % less on "
            "Panda queries in the median", math.isfinite(med) and med <= 2.0,
            f"median {med:.2f} %")
     target("... and ≤ 5 % on any Panda query", bool(il) and top <= 5.0,

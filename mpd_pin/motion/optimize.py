@@ -83,7 +83,8 @@ class OptimizeSettings:
     later seed gets what the earlier ones left, and none starts with less than a tenth of
     it); cpu_limit: CPU seconds after which a seed stops regardless, a guard against
     pathological solves only (never reached on the bench's queries); polish: iterations
-    of one more solve from the query's best optimum, with a fresh SLSQP model (0: none).
+    of one more solve from the query's best optimum, with a fresh SLSQP model (0: none),
+    on ``polish_points`` more control points per joint.
     """
 
     control_points: int = 0
@@ -102,7 +103,8 @@ class OptimizeSettings:
     budget: int = 240
     query_budget: int = 400
     cpu_limit: float = 6.0
-    polish: int = 120
+    polish: int = 240
+    polish_points: int = 8
 
 
 @dataclass
@@ -614,20 +616,30 @@ def _optimize(drive, checker, T, options, settings, seed_motion, distances, C0, 
 
 def polish(drive: Drive, checker: Any, out: OptimizedMotion, options: Any,
            settings: OptimizeSettings | None = None, distances: Any = None) -> OptimizedMotion:
-    """One solve more from an optimum ``out.motion``, on its own control polygon with a
-    fresh SLSQP model and ``settings.polish`` iterations (docs/design.md §9g): SLSQP's
-    BFGS model can meet ``ftol`` with a small step short of the optimum. Returns the
-    cheaper of the two (``record["polish"]`` says what the polish found)."""
+    """Two solves more from an optimum ``out.motion``, each with a fresh SLSQP model and
+    ``settings.polish`` iterations (docs/design.md §9g): one on its own control polygon
+    (SLSQP's BFGS model can meet ``ftol`` short of the optimum), then one on a finer
+    spline, its curve fitted with ``settings.polish_points`` more control points per joint
+    (the coarse spline leaves energy on the table: an independent optimiser on a finer
+    spline found up to 15 % less). Each is kept only when cheaper, simulated;
+    ``record["polish"]`` holds the two records."""
     settings = settings or OptimizeSettings()
     if out.motion is None or not settings.polish:
         return out
-    won = out.motion
-    again = optimize_curve(drive, checker, seed_curve(drive, won), won.duration, options,
-                           settings=replace(settings, budget=int(settings.polish)),
-                           seed_motion=won, distances=distances)
-    rec = {**out.record, "polish": again.record,
-           "cpu_seconds": out.record["cpu_seconds"] + again.record["cpu_seconds"]}
-    return OptimizedMotion(again.motion or won, rec)
+    won, records, cpu = out.motion, [], 0.0
+    for extra in (0, int(settings.polish_points)):
+        if records and not extra:
+            break
+        n_c = int(won.curve.spline.c.shape[0]) + extra
+        again = optimize_curve(drive, checker, seed_curve(drive, won), won.duration, options,
+                               settings=replace(settings, budget=int(settings.polish),
+                                                control_points=n_c),
+                               seed_motion=won, distances=distances)
+        records.append(again.record)
+        cpu += float(again.record["cpu_seconds"])
+        won = again.motion or won
+    rec = {**out.record, "polish": records, "cpu_seconds": out.record["cpu_seconds"] + cpu}
+    return OptimizedMotion(won, rec)
 
 
 def _sampled_failure(checker: Any, curve: ViaSpline, samples: int = 400) -> float | None:

@@ -106,7 +106,8 @@ def independent(drive, checker, motion, options, samples: int = 4000):
     from scipy.optimize import minimize
 
     from mpd_pin.collision.distance import PairDistances
-    from mpd_pin.motion.optimize import OptimizeSettings, _price, _Problem, fit_curve, spline_curve
+    from mpd_pin.motion.optimize import _price
+    from mpd_pin.motion.problem import OptimizeSettings, Problem, fit_curve, spline_curve
 
     if motion is None or not motion.feasible or motion.curve is None:
         return NAN
@@ -115,9 +116,9 @@ def independent(drive, checker, motion, options, samples: int = 4000):
     C0 = fit_curve(lambda tau: curve.spline(np.clip(tau, 0, 1) * curve.unit_duration), n_c,
                    curve.waypoints[0], curve.waypoints[-1])
     settings = OptimizeSettings()
-    prob = _Problem(drive, PairDistances(checker), C0, T, settings)
+    prob = Problem(drive, PairDistances(checker), C0, T, settings)
     x = prob.x0()
-    prob.beta = 200.0 / max(float(np.max(np.abs(prob._dynamics(x)["P"]))), 1e-9)
+    prob.beta = 200.0 / max(float(np.max(np.abs(prob.dynamics(x)["P"]))), 1e-9)
     scale = prob.energy(x)
     lo, hi = np.array(prob.bounds()).T
     mu = 1e3

@@ -16,6 +16,7 @@ from scipy.optimize import linprog
 import mpd_pin as mp
 from mpd_pin.collision.distance import PairDistances
 from mpd_pin.motion import optimize as O
+from mpd_pin.motion import problem as P
 from mpd_pin.motion.spline import via_spline
 
 
@@ -124,8 +125,8 @@ def test_energy_gradient_matches_finite_differences(quickstart):
     seed = O.seed_curve(drive, plan.motion.alternative or plan.motion)
     C0 = O.fit_curve(lambda tau: seed.spline(tau * seed.unit_duration), 16,
                      seed.waypoints[0], seed.waypoints[-1])
-    prob = O._Problem(drive, None, C0, 6.0, O.OptimizeSettings())
-    prob.beta = 200.0 / np.max(np.abs(prob._dynamics(prob.x0())["P"]))
+    prob = P.Problem(drive, None, C0, 6.0, O.OptimizeSettings())
+    prob.beta = 200.0 / np.max(np.abs(prob.dynamics(prob.x0())["P"]))
     x = prob.x0() + np.random.default_rng(0).normal(0, 0.05, prob.x0().size)
     g = prob.energy_grad(x)
     h = 1e-6
@@ -168,7 +169,7 @@ def test_certificate_rejects_what_sparse_samples_miss(quickstart, monkeypatch):
     drive = scn.drive()
     base = mp.plan(scn, show_progress=False, refine=False).motion
     monkeypatch.setattr(O, "_sampled_failure", lambda *a, **k: None)
-    monkeypatch.setattr(O._Problem, "add_samples", lambda self, x, count=400: 0)
+    monkeypatch.setattr(P.Problem, "add_samples", lambda self, x, count=400: 0)
     settings = O.OptimizeSettings(collision_samples=2, activation=0.01, retries=0)
     out = O.optimize_curve(drive, checker, O.seed_curve(drive, base), base.duration,
                            scn.options, settings=settings, seed_motion=base)
@@ -186,8 +187,8 @@ def test_panda_optimum_has_no_feasible_descent_direction(panda):
     assert m.curve is not None
     drive = scn.drive()
     C = m.curve.spline.c
-    prob = O._Problem(drive, PairDistances(checker), C, m.duration, O.OptimizeSettings())
-    prob.beta = 200.0 / np.max(np.abs(prob._dynamics(prob.x0())["P"]))
+    prob = P.Problem(drive, PairDistances(checker), C, m.duration, O.OptimizeSettings())
+    prob.beta = 200.0 / np.max(np.abs(prob.dynamics(prob.x0())["P"]))
     x = prob.x0()
     prob.choose_pairs(x)
     prob.choose_velocity_rows(x)
@@ -277,7 +278,7 @@ def test_ur5_wrist_swing_is_gone():
     # what excursion is left is needed: the same motion with its wrists held within the
     # band (control points clipped: the curve stays in their hull) collides at 4,000
     # samples, breaks a limit or costs more
-    held = O.spline_curve(O._knots(C.shape[0]), C, m.duration)
+    held = O.spline_curve(P.clamped_knots(C.shape[0]), C, m.duration)
     t = np.linspace(0.0, held.unit_duration, 4000)
     checker = mp.CollisionChecker(scn.arm, scn.world)
     priced = O._price(scn.drive(), held, m.duration, scn.options)

@@ -275,9 +275,7 @@ def polish(drive: Drive, checker: Any, out: OptimizedMotion, options: Any,
     if out.motion is None or not settings.polish:
         return out
     won, records, cpu = out.motion, [], 0.0
-    for extra in (0, int(settings.polish_points)):
-        if records and not extra:
-            break
+    for extra in [0] + [int(settings.polish_points)] * bool(settings.polish_points):
         n_c = int(won.curve.spline.c.shape[0]) + extra
         again = optimize_curve(drive, checker, seed_curve(drive, won), won.duration, options,
                                settings=replace(settings, budget=int(settings.polish),

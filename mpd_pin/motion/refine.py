@@ -273,6 +273,7 @@ def _optimize_best(drive: Drive, checker: Any, options: Any, motion: MotionOptio
                          "why": f"not optimised: the query's iteration budget "
                                 f"({settings.query_budget}) was used up",
                          "cpu_seconds": 0.0, "seconds": 0.0})
+            shown.update(1)
             continue
         shown.set_postfix_str(name)
         out = optimize_curve(drive, checker, seed_curve(drive, me), me.duration, options,

@@ -667,6 +667,7 @@ def test_finite_hazard_penalty_reports_unpenalised_energy(tmp_path):
     data["obstacles"] = [*data["obstacles"], {"type": "sphere", "name": "far", "hidden": True,
                                               "center": [0.0, -1.5], "radius": 0.05}]
     data["sensor"] = {"range": 0.01}
+    data["run"] = {"verify": True}
     scn = parse_energy_scenario(data)
     with pytest.warns(HazardClearanceWarning):  # the mild penalty leaves the path too close
         result = run_energy_scenario(scn, tmp_path / "o", show_progress=False, replay=False)

@@ -15,9 +15,10 @@ from mpd_pin.planning.roadmap import Roadmap
 def _run(tmp_path_factory, name, *extra):
     base = tmp_path_factory.mktemp(name)
     out, cache = base / "out", base / "roadmap.npz"
-    # eager: networkx below searches every roadmap energy (lazy == eager: tests/test_lazy.py)
+    # eager: networkx below searches every roadmap energy (lazy == eager: tests/test_lazy.py);
+    # --verify: the paths re-simulated with simulate_edge, which the checks below read
     status = main(["run", name, "--out", str(out), "--quiet", "--no-replay",
-                   "--cache", str(cache), "--evaluation", "eager", *extra])
+                   "--cache", str(cache), "--evaluation", "eager", "--verify", *extra])
     assert status == 0
     result = json.loads((out / "result.json").read_text())
     return result, out, Roadmap.load(cache)

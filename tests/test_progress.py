@@ -212,7 +212,7 @@ def test_cli_run_shows_every_long_phase_and_quiet_silences_them(tmp_path, capfd)
     capfd.readouterr()
     assert main([*args, str(tmp_path / "a"), "--quiet"]) == 0
     assert capfd.readouterr().err == ""
-    assert main([*args, str(tmp_path / "b")]) == 0
+    assert main([*args, str(tmp_path / "b"), "--verify"]) == 0  # the opt-in phase shows too
     err = capfd.readouterr().err
     for phase in ("edge checks, ", "lazy search (energy)", "verification", "refinement",
                   "mpd-pin: plots done", "mpd-pin: replay done"):
@@ -353,10 +353,10 @@ def test_cli_run_on_a_pty_draws_bars_and_on_a_pipe_writes_lines(tmp_path):
     pty (no window size, as ``pty.openpty()`` makes it) draws tqdm frames for sampling, the
     edge checks (total = the roadmap's candidate pairs, growing counts, a rate) and the lazy
     search's rounds; the same command with stderr on a pipe writes no ``\\r`` and one line
-    per phase with its count. Both are read until verification starts (the roadmap phases),
-    then ended."""
+    per phase with its count. Both are read until verification (``--verify``) starts (the
+    roadmap phases), then ended."""
     argv = [sys.executable, "-m", "mpd_pin", "run", "panda", "--nodes", str(PTY_NODES),
-            "--collision", "eager", "--no-replay", "--out"]
+            "--collision", "eager", "--no-replay", "--verify", "--out"]
     master, slave = pty.openpty()
     try:
         on_pty = subprocess.Popen([*argv, str(tmp_path / "pty")], stdin=slave, stdout=slave,

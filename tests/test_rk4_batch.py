@@ -40,7 +40,7 @@ import pytest
 import mpd_pin as mp
 from mpd_pin.dynamics.current import current_step
 from mpd_pin.dynamics.remote import model_digest
-from mpd_pin.dynamics.simulate import EdgeOutcomes, _integrate_batch, edge_outcomes, step_count
+from mpd_pin.dynamics.simulate import EdgeOutcomes, edge_outcomes, integrate_batch, step_count
 
 FIXTURE = Path(__file__).resolve().parent / "data" / "rk4_reference.npz"
 FIELDS = ("energy", "net_energy", "end_error", "end_velocity", "peak_torque")
@@ -97,7 +97,7 @@ def _edges(drive: mp.Drive, case: str):
 
 def _record(drive: mp.Drive, Q0, Q1, T):
     N = np.array([step_count(x, DT) for x in T.tolist()], dtype=np.int64)
-    return _integrate_batch(drive, Q0, Q1, T, N, DT, 2, record=True)
+    return integrate_batch(drive, Q0, Q1, T, N, DT, 2, record=True)
 
 
 def _series_digests(drive: mp.Drive, Q0, Q1, T) -> list[str]:

@@ -36,10 +36,11 @@ def _shared_scenario(supply: mp.Supply = SHARED):
 
 @functools.cache
 def _eager_shared(tmp_dir: str):
-    """Quickstart on a shared bus with η = 0.6, every edge simulated; the roadmap saved."""
+    """Quickstart on a shared bus with η = 0.6, every edge simulated, verified with
+    simulate_edge; the roadmap saved."""
     cache = f"{tmp_dir}/rm.npz"
     plan = mp.plan(_shared_scenario(), cache=cache, show_progress=False, evaluation="eager",
-                   collision="eager")
+                   collision="eager", verify=True)
     return plan, Roadmap.load(cache)
 
 

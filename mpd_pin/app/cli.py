@@ -8,6 +8,7 @@
         [--evaluation lazy|eager]           (override [roadmap] evaluation)
         [--collision lazy|eager]            (override [roadmap] collision)
         [--nodes N] [--execution auto|stop|nonstop] [--no-refine] [--no-optimize]
+        [--verify]                          (re-simulate the roadmap paths with simulate_edge)
         [--quiet] [--no-replay] [--no-plots]  (no progress; no replay.html; no figures)
         [--max-duration S]                  (override [motion] max_duration: the cycle time)
         [--cache FILE] [--scheduler ADDRESS|local[:N]]   roadmap file; Dask cluster (§4h)
@@ -97,7 +98,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     flags = {"--evaluation": args.evaluation, "--collision": args.collision,
              "--scheduler": args.scheduler,
              "--execution": args.execution, "--no-refine": args.no_refine or None,
-             "--no-optimize": args.no_optimize or None,
+             "--no-optimize": args.no_optimize or None, "--verify": args.verify or None,
              "--nodes": args.nodes, "--max-duration": max_duration}
     given = [flag for flag, value in flags.items() if value is not None]
     if given:
@@ -114,6 +115,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                             scheduler=args.scheduler,
                             execution=args.execution, refine=False if args.no_refine else None,
                             optimize=False if args.no_optimize else None,
+                            verify=True if args.verify else None,
                             num_nodes=args.nodes, max_duration=max_duration)
         except ConfigError as exc:
             raise ConfigError(f"--{exc}") from None
@@ -302,6 +304,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "([motion] optimize = false, docs/design.md §9g)")
     p.add_argument("--no-refine", action="store_true",
                    help="return the roadmap path as it is (no energy-aware shortcuts)")
+    p.add_argument("--verify", action="store_true",
+                   help="re-simulate the roadmap paths edge by edge with the reference "
+                        "simulate_edge and record the agreement in result.json verification "
+                        "([run] verify = true, docs/design.md §7c)")
     p.add_argument("--nodes", type=int, default=None, metavar="N",
                    help="override [roadmap] num_nodes: the roadmap's random samples (more "
                         "nodes: better paths, longer runs)")

@@ -451,7 +451,8 @@ def result_record(
         record["energy_by_supply"] = motion.energy.energy_by_supply()
     if comparison is not None:
         record["comparison"] = comparison
-    record["verification"] = check.to_dict()
+    if check.checked:  # the verify step ran ([run] verify, §7c)
+        record["verification"] = check.to_dict()
     if replay is not None:
         record["replay"] = replay
     if setup.lazy is not None:  # lazy: simulated during the searches (docs/design.md §4g)
@@ -495,8 +496,6 @@ def comparison_record(
     else:
         basis = "planned"
     entry = _path_entry(roadmap, shortest.path, scn.arm)
-    entry["energy_per_joint_simulate_edge"] = shortest_check.energy_per_joint
-    entry["total_energy_simulate_edge"] = shortest_check.total_energy
     e_opt = path_supply_energy(roadmap, plan.path, plan.energy)
     out: dict[str, Any] = {
         "basis": basis,
@@ -504,10 +503,12 @@ def comparison_record(
         "planner": scn.planner,
         "shortest_path": entry,
         "energy_saved_percent": _saved_percent(e_opt, entry["total_energy"]),
-        "energy_saved_percent_simulate_edge": _saved_percent(
-            check.total_energy, entry["total_energy_simulate_edge"]
-        ),
     }
+    if check.checked and shortest_check.checked:  # the verify step ran (§7c)
+        entry["energy_per_joint_simulate_edge"] = shortest_check.energy_per_joint
+        entry["total_energy_simulate_edge"] = shortest_check.total_energy
+        out["energy_saved_percent_simulate_edge"] = _saved_percent(
+            check.total_energy, entry["total_energy_simulate_edge"])
     if plan.execution is not None and shortest.execution is not None:
         opt0 = _path_entry(roadmap, plan.execution.initial_path, scn.arm)
         short0 = _path_entry(roadmap, shortest.execution.initial_path, scn.arm)

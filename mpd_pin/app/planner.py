@@ -65,14 +65,15 @@ def configure(scn: EnergyScenario, *, seed: int | None = None, planner: str | No
               refine: bool | None = None, scheduler: Any = None,
               num_nodes: int | None = None, collision: str | None = None,
               max_duration: float | None = None,
-              optimize: bool | None = None) -> EnergyScenario:
+              optimize: bool | None = None, verify: bool | None = None) -> EnergyScenario:
     """``scn`` with some settings replaced (None: keep the scenario's): ``[roadmap] seed``,
     ``num_nodes``, ``evaluation`` and ``collision`` ("lazy"/"eager"), ``[planner] algorithm``,
     ``[motion] execution`` ("auto"/"stop"/"nonstop"), ``refine``, ``optimize`` (the
     trajectory optimisation, docs/design.md §9g) and ``max_duration`` (s, the longest the
     motion may take), ``[compute] scheduler`` ("threads", "local[:N]", an
-    address, or a Dask client). ConfigError (one line naming the setting) for a bad
-    value."""
+    address, or a Dask client), ``[run] verify`` (re-simulate the roadmap paths with the
+    reference ``simulate_edge``, docs/design.md §7c). ConfigError (one line naming the
+    setting) for a bad value."""
     from ..motion.energy import EXECUTIONS
     from .scenario import LIMITS
 
@@ -119,6 +120,10 @@ def configure(scn: EnergyScenario, *, seed: int | None = None, planner: str | No
         scheduler = None if kind == "threads" else scheduler
     elif scheduler is None:
         scheduler = scn.scheduler
+    if verify is not None:
+        if not isinstance(verify, (bool, np.bool_)):
+            raise ConfigError(f"verify: expected true or false, got {verify!r}")
+        scn = replace(scn, verify=bool(verify))
     return replace(scn, options=options, planner=planner or scn.planner,
                    evaluation=evaluation or scn.evaluation, motion=motion, scheduler=scheduler,
                    collision=collision or scn.collision)
@@ -153,7 +158,9 @@ class EnergyPlanner:
     hazard_penalty: ∞ removes edges too close to a hazard, else their cost factor;
     scheduler: where edge energies run ("threads", "local[:N]", a Dask address or
     client); cache: a roadmap ``.npz`` for the first query (reused or written);
-    show_progress: progress bars on stderr; name: the label of results and plots.
+    show_progress: progress bars on stderr; name: the label of results and plots;
+    verify: re-simulate each query's roadmap paths with the reference ``simulate_edge``
+    and record the agreement in result.json ``verification`` (docs/design.md §7c).
 
     Use it as a context manager (or call :meth:`close`) when ``scheduler`` starts a
     cluster.
@@ -166,7 +173,7 @@ class EnergyPlanner:
                  sensor_range: float | None = None, hazard_penalty: float = math.inf,
                  scheduler: Any = None, cache: str | os.PathLike | None = None,
                  show_progress: bool = True, name: str = "plan",
-                 trajectory_rate: float = DEFAULT_TRAJECTORY_RATE) -> None:
+                 trajectory_rate: float = DEFAULT_TRAJECTORY_RATE, verify: bool = False) -> None:
         if not isinstance(drive, Drive):
             raise TypeError(f"drive must be an mpd_pin.Drive, got {type(drive).__name__}")
         world = World(()) if world is None else world
@@ -187,7 +194,7 @@ class EnergyPlanner:
             supply=drive.supply,
         )
         self._init(configure(scn, planner=planner, evaluation=evaluation, scheduler=scheduler,
-                             collision=collision),
+                             collision=collision, verify=verify),
                    cache, show_progress, trajectory_rate)
 
     @classmethod
@@ -298,15 +305,19 @@ class EnergyPlanner:
         eager = self.show_progress and setup.lazy is None
         with clock.phase("search"), status("search", eager):
             result = plan_path(scn, setup)
-        with clock.phase("verification"), status("verification", self.show_progress):
-            check = verify_path(setup.drive, setup.roadmap, result.path, dt, result.energy)
+        # the roadmap paths' series: the batched integrator's (the roadmap's own numbers),
+        # or with [run] verify the reference simulate_edge's, compared (§7c, issue 34)
+        ref = bool(scn.verify)
+        with clock.phase("verification"), status("verification", self.show_progress and ref):
+            check = verify_path(setup.drive, setup.roadmap, result.path, dt, result.energy,
+                                reference=ref)
         with clock.phase("comparison"), status("shortest path", eager):
             short = plan_shortest(scn, setup)
-            # the same node sequence is the same simulation: verified once (issue 34)
+            # the same node sequence is the same simulation: simulated once (issue 34)
             short_check = (check if list(short.path) == list(result.path)
                            and np.array_equal(short.energy, result.energy)
                            else verify_path(setup.drive, setup.roadmap, short.path, dt,
-                                            short.energy))
+                                            short.energy, reference=ref))
             comparison = comparison_record(scn, setup, result, check, short, short_check)
         with clock.phase("refinement"):
             motion = make_motion(scn, setup, result, check, short,

@@ -60,6 +60,9 @@ A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
     optimize = true            # then optimise the motion as a whole (docs/design.md §9g)
     max_duration = 20.0        # s; longest motion allowed (default: no limit)
 
+    [run]
+    verify = false             # re-simulate the roadmap paths with simulate_edge (§7c)
+
     [task]
     start = [0.6, 0.3, 0.2]    # rad; or start_ee = [x, z] (planar) / [x, y, z], solved by IK
     goal = [2.4, -0.3, -0.2]
@@ -150,6 +153,9 @@ class EnergyScenario:
     collision: str = "lazy"
     #: how the drives are fed: per joint (paper 000) or a shared DC bus (§3i)
     supply: Supply = PER_JOINT
+    #: ``[run] verify``: re-simulate the roadmap paths with the reference ``simulate_edge``
+    #: (docs/design.md §7c; off by default: the batched integrator's series is used)
+    verify: bool = False
 
     def drive(self) -> Drive:
         return Drive(self.arm, self.motor, self.kp, self.kd, feedforward=self.feedforward,
@@ -575,6 +581,9 @@ def parse_energy_scenario(
     scheduler = _compute(top.table("compute"))
     motion = _motion(top.table("motion"))
     supply = _supply(top.table("supply"))
+    run_t = top.table("run")
+    verify = run_t.boolean("verify", False)
+    run_t.done()
     top.done()
     holding = Drive(arm, motor, kp, kd, feedforward=ff)  # a motor too weak to hold (§3g)
     for what, q in (("task.start", start), ("task.goal", goal)):
@@ -603,6 +612,7 @@ def parse_energy_scenario(
         motion=motion,
         collision=collision,
         supply=supply,
+        verify=verify,
     )
 
 

@@ -1,31 +1,68 @@
-"""The verify step of a run: re-simulate the planned path edge by edge (docs/design.md §3, §7).
+"""The roadmap path's time series, and the opt-in verify step (docs/design.md §3, §7c).
 
-The roadmap's edge energies come from the batched cost (:class:`~mpd_pin.dynamics.EnergyCost`);
-:func:`verify_path` recomputes the path's energy with :func:`simulate_edge`, one edge after
-the other, and reports how far the two agree. The simulated motion it returns is what the
-plots and the replay show.
+The roadmap's edge energies come from the batched cost (:class:`~mpd_pin.dynamics.EnergyCost`).
+:func:`path_series` re-runs the path's edges through that same batched integrator,
+recording every RK4 step (rows never mix, so each edge's energy is the roadmap's, bit for
+bit): this is what the plots, the replay and the trajectory files show. The verify step
+(:func:`verify_path`, ``[run] verify``, ``--verify``, ``verify=``; off by default, issue
+34) re-simulates the path instead with the independent per-edge reference
+:func:`simulate_edge` and reports how far the two integrators agree.
 """
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
 from ..arm import Arm
 from ..collision import edge_configurations
 from ..dynamics.motor import Drive
-from ..dynamics.simulate import simulate_edge
+from ..dynamics.simulate import integrate_batch, simulate_edge, step_count
 from ..dynamics.supply import PER_JOINT, Supply, supply_energy
 from ..planning.roadmap import Roadmap
 
-__all__ = ["Verification", "simulate_path", "straight_line_configurations", "verify_path"]
+__all__ = ["Verification", "path_series", "simulate_path", "straight_line_configurations",
+           "verify_path"]
 
 
-def simulate_path(
-    drive: Drive, roadmap: Roadmap, path: list[int], dt: float
+def _reference_edges(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, dt: float):
+    """Each edge simulated alone by the per-edge reference :func:`simulate_edge`."""
+    for q0, q1, dur in zip(Q0, Q1, T.tolist(), strict=True):
+        yield simulate_edge(drive, q0, q1, float(dur), dt)
+
+
+def _batched_edges(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, dt: float):
+    """Each edge's recorded series from the batched integrator, the edges of one step
+    h = T/N together, as :func:`~mpd_pin.dynamics.simulate.edge_outcomes` groups them
+    (rows never mix: each edge's numbers are the roadmap's)."""
+    N = np.array([step_count(float(x), dt) for x in T.tolist()], dtype=np.int64)
+    groups: dict[float, list[int]] = {}
+    for k, (dur, n) in enumerate(zip(T.tolist(), N.tolist(), strict=True)):
+        groups.setdefault(float(dur) / int(n), []).append(k)
+    sims: list[SimpleNamespace | None] = [None] * len(N)
+    threads = int(os.cpu_count() or 1)
+    for h, members in groups.items():
+        idx = np.asarray(members)
+        _, rec = integrate_batch(drive, Q0[idx], Q1[idx], T[idx], N[idx], h, threads,
+                                 record=True)
+        for j, k in enumerate(idx.tolist()):
+            n = int(N[k]) + 1
+            sims[k] = SimpleNamespace(
+                t=np.arange(n) * h, q=rec.q[:n, j], v=rec.v[:n, j], i=rec.i[:n, j],
+                V=rec.V[:n, j], energy_t=rec.energy_t[:n, j], energy=rec.energy_t[n - 1, j],
+                bus_energy_t=rec.bus_energy_t[:n, j], bus_energy=rec.bus_energy_t[n - 1, j])
+    yield from sims
+
+
+def path_series(
+    drive: Drive, roadmap: Roadmap, path: list[int], dt: float, *, reference: bool = False
 ) -> dict[str, np.ndarray]:
-    """Simulate every edge of ``path`` with :func:`simulate_edge` and concatenate the series.
+    """The series of ``path``: its edges through the batched integrator (``reference``
+    False: the roadmap's own numbers, one batch per step size) or each through the
+    per-edge reference :func:`simulate_edge` (True: the verify step), concatenated.
 
     Returns t (s), q (rad), v (rad/s), i (A), V (V), energy_t (cumulative E⁺ per joint, J),
     energy per edge (E⁺ per joint, J), bus_energy_t and edge_bus (the same for the shared
@@ -50,15 +87,17 @@ def simulate_path(
     t0, e0, b0 = 0.0, np.zeros(nq), np.zeros(2)
     node_times = [0.0]
     turns = np.zeros(nq)  # whole turns (rad) of the unwrapped motion (§1d)
-    for e in ids:
-        q0 = roadmap.nodes[roadmap.src[e]]
-        q1 = drive.arm.edge_target(q0, roadmap.nodes[roadmap.dst[e]])
-        sim = simulate_edge(drive, q0, q1, float(roadmap.durations[e]), dt)
+    Q0 = roadmap.nodes[roadmap.src[ids]].reshape(len(ids), nq)
+    ends = roadmap.nodes[roadmap.dst[ids]].reshape(len(ids), nq)
+    Q1 = drive.arm.edge_target(Q0, ends) if len(ids) else ends
+    T = np.asarray(roadmap.durations[ids], dtype=float)
+    edges = (_reference_edges if reference else _batched_edges)(drive, Q0, Q1, T, dt)
+    for q1, end, sim in zip(Q1, ends, edges, strict=True):
         if not per_edge:  # the start sample as simulated (its voltage is the controller's)
             Vs[0] = sim.V[:1]
         ts.append(t0 + sim.t[1:])
         qs.append(sim.q[1:] + turns)
-        turns = turns + (q1 - roadmap.nodes[roadmap.dst[e]])
+        turns = turns + (q1 - end)
         vs.append(sim.v[1:])
         cs.append(sim.i[1:])
         Vs.append(sim.V[1:])
@@ -84,6 +123,13 @@ def simulate_path(
     }
 
 
+def simulate_path(
+    drive: Drive, roadmap: Roadmap, path: list[int], dt: float
+) -> dict[str, np.ndarray]:
+    """:func:`path_series` with every edge through the reference :func:`simulate_edge`."""
+    return path_series(drive, roadmap, path, dt, reference=True)
+
+
 def straight_line_configurations(
     roadmap: Roadmap, nodes: list[int], resolution: float, arm: Arm | None = None
 ) -> np.ndarray:
@@ -101,7 +147,7 @@ def straight_line_configurations(
 
 @dataclass
 class Verification:
-    """The path re-simulated: ``series`` (see :func:`simulate_path`), the recomputed
+    """The path simulated: ``series`` (see :func:`path_series`), the recomputed
     E⁺ per joint (J) and its agreement with the roadmap's energy; the recomputed bus
     energies [B⁺, B⁻] (J) and the supply that prices them (docs/design.md §3i)."""
 
@@ -110,6 +156,9 @@ class Verification:
     max_relative_difference: float
     bus_energy: np.ndarray = field(default_factory=lambda: np.zeros(2))
     supply: Supply = PER_JOINT
+    #: True when ``series`` and the energies come from the reference :func:`simulate_edge`
+    #: (the verify step); False: from the batched integrator, the roadmap's own numbers
+    checked: bool = True
 
     @property
     def total_energy(self) -> float:
@@ -138,11 +187,15 @@ class Verification:
 
 
 def verify_path(
-    drive: Drive, roadmap: Roadmap, path: list[int], dt: float, energy: np.ndarray
+    drive: Drive, roadmap: Roadmap, path: list[int], dt: float, energy: np.ndarray,
+    *, reference: bool = True,
 ) -> Verification:
-    """Re-simulate ``path`` (RK4 step ``dt`` s) and compare its E⁺ per joint with ``energy``
-    (J, the roadmap's, unpenalised)."""
-    series = simulate_path(drive, roadmap, path, dt)
+    """Simulate ``path`` (RK4 step ``dt`` s) and compare its E⁺ per joint with ``energy``
+    (J, the roadmap's, unpenalised): with the reference :func:`simulate_edge` (the verify
+    step), or with ``reference=False`` through the batched integrator the roadmap priced
+    it with (the series for files and plots; the difference is then 0 up to the order of
+    the sum over edges)."""
+    series = path_series(drive, roadmap, path, dt, reference=reference)
     recomputed = series["edge_energy"].sum(axis=0)
     diff = (
         float(np.max(np.abs(recomputed - energy) / np.maximum(np.abs(energy), 1e-300)))
@@ -150,4 +203,5 @@ def verify_path(
         else 0.0
     )
     return Verification(series=series, energy_per_joint=recomputed, max_relative_difference=diff,
-                        bus_energy=series["edge_bus"].sum(axis=0), supply=drive.supply)
+                        bus_energy=series["edge_bus"].sum(axis=0), supply=drive.supply,
+                        checked=reference)

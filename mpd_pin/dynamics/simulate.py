@@ -48,6 +48,7 @@ __all__ = [
     "step_count",
     "EdgeOutcomes",
     "edge_outcomes",
+    "integrate_batch",
 ]
 
 
@@ -351,7 +352,7 @@ def _reference_table(drive: Drive, Q0, DQ, half, T, s, sd, pool, threads: int):
 
 
 @np.errstate(over="ignore", invalid="ignore")  # divergence is detected and reported below
-def _integrate_batch(
+def integrate_batch(
     drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, N: np.ndarray, h: float,
     threads: int, *, record: bool = False,
 ):
@@ -462,7 +463,7 @@ def edge_outcomes(
             ):
                 stop += 1
             sel = idx[start:stop]
-            parts = _integrate_batch(
+            parts = integrate_batch(
                 drive, Q0[sel], Q1[sel], durations[sel], steps[sel], h, threads
             )
             for arr, part in zip(out, parts, strict=True):

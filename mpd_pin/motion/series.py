@@ -29,10 +29,10 @@ def _stop_edges(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, dt:
     one batch."""
     import os
 
-    from ..dynamics.simulate import _integrate_batch
+    from ..dynamics.simulate import integrate_batch
 
     N = np.array([step_count(float(x), dt) for x in T], dtype=np.int64)
-    _, rec = _integrate_batch(drive, Q0, Q1, T, N, dt, int(os.cpu_count() or 1), record=True)
+    _, rec = integrate_batch(drive, Q0, Q1, T, N, dt, int(os.cpu_count() or 1), record=True)
     for k, n in enumerate(N.tolist()):
         t = np.arange(n + 1) * dt
         yield (t, rec.q[: n + 1, k], rec.v[: n + 1, k], rec.i[: n + 1, k], rec.V[: n + 1, k],

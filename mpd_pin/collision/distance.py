@@ -76,6 +76,13 @@ class PairDistances:
         self._j1 = joint[self._first] if self.pairs.size else np.zeros(0, np.int64)
         self._j2 = joint[self._second] if self.pairs.size else np.zeros(0, np.int64)
         self.nq = self.model.nq
+        # (njoints, 1, nv): 1 on the columns of the joints that move joint j (its support)
+        self._support = np.zeros((self.model.njoints, 1, self.model.nv))
+        for j in range(1, self.model.njoints):
+            for k in self.model.supports[j]:
+                if k > 0:
+                    jm = self.model.joints[k]
+                    self._support[j, 0, jm.idx_v: jm.idx_v + jm.nv] = 1.0
         active = np.zeros(len(cps), dtype=bool)
         active[self.pairs] = True
         for k, on in enumerate(active.tolist()):
@@ -111,12 +118,10 @@ class PairDistances:
 
     def _jacobians(self) -> np.ndarray:
         """(njoints, 6, nq): every joint's Jacobian in the WORLD frame at the placement
-        last computed (row 0, the universe, is zero)."""
-        model, data = self.model, self.data
-        J = np.zeros((model.njoints, 6, self.nq))
-        for j in range(1, model.njoints):
-            J[j] = pin.getJointJacobian(model, data, j, pin.WORLD)
-        return J
+        last computed (row 0, the universe, is zero): the stacked Jacobian ``data.J`` of
+        :func:`pin.computeJointJacobians` restricted to each joint's supporting columns,
+        which is what ``pin.getJointJacobian(…, WORLD)`` returns, in one product."""
+        return np.asarray(self.data.J)[None] * self._support
 
     def distances_and_gradients(self, Q: np.ndarray, select: list[np.ndarray]
                                 ) -> tuple[np.ndarray, np.ndarray]:
@@ -127,31 +132,37 @@ class PairDistances:
         Jacobian, so nᵀ ṗ = (nᵀ J_v + (p × n)ᵀ J_ω) q̇."""
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
         n = int(sum(len(x) for x in select))
-        d = np.empty(n)
-        normal, p1, p2 = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
-        owner = np.empty(n, dtype=np.int64)
-        cols_all = np.empty(n, dtype=np.int64)
+        d: list[float] = []
+        normal: list[np.ndarray] = []
+        p1: list[np.ndarray] = []
+        p2: list[np.ndarray] = []
+        owner: list[int] = []
+        cols_all: list[int] = []
         jac = np.zeros((len(select), self.model.njoints, 6, self.nq))
-        row = 0
-        gm, gd, pairs = self.gm, self.gd, self.pairs
+        gm, gd, pairs = self.gm, self.gd, self.pairs.tolist()
+        distance = pin.computeDistance
         for s, cols in enumerate(select):
-            m = len(cols)
-            if not m:
+            if not len(cols):
                 continue
             self._place(Q[s], True)
             jac[s] = self._jacobians()
-            for c in np.asarray(cols, dtype=np.int64).tolist():
-                res = pin.computeDistance(gm, gd, int(pairs[c]))
-                d[row] = res.min_distance
-                normal[row] = res.normal
-                p1[row] = res.getNearestPoint1()
-                p2[row] = res.getNearestPoint2()
-                owner[row], cols_all[row] = s, c
-                row += 1
+            cols = np.asarray(cols, dtype=np.int64).tolist()
+            for c in cols:
+                res = distance(gm, gd, pairs[c])
+                d.append(res.min_distance)  # copies: the result object is the pair's,
+                normal.append(res.normal.copy())  # overwritten at the next sample
+                p1.append(res.getNearestPoint1().copy())
+                p2.append(res.getNearestPoint2().copy())
+            owner += [s] * len(cols)
+            cols_all += cols
+        if not n:
+            return np.zeros(0), np.zeros((0, self.nq))
+        nrm, P1, P2 = np.array(normal), np.array(p1), np.array(p2)
+        own, ca = np.array(owner), np.array(cols_all)
         G = np.zeros((n, self.nq))
-        for joints, p, sign in ((self._j2, p2, 1.0), (self._j1, p1, -1.0)):
-            J = jac[owner, joints[cols_all]]  # (n, 6, nq)
-            pxn = np.cross(p, normal)
-            G += sign * (np.einsum("ni,nij->nj", normal, J[:, :3])
+        for joints, p, sign in ((self._j2, P2, 1.0), (self._j1, P1, -1.0)):
+            J = jac[own, joints[ca]]  # (n, 6, nq)
+            pxn = np.cross(p, nrm)
+            G += sign * (np.einsum("ni,nij->nj", nrm, J[:, :3])
                          + np.einsum("ni,nij->nj", pxn, J[:, 3:]))
-        return d, G
+        return np.array(d), G

@@ -282,3 +282,41 @@ def test_hidden_obstacles_keep_the_travelled_path_and_say_why(tmp_path):
     assert r["motion"]["execution"] == "stop"
     assert "sensed on the way" in r["motion"]["note"]
     assert r["total_energy"] == r["roadmap_path"]["total_energy"]
+
+
+def test_the_shortest_path_is_refined_once_as_a_candidate(monkeypatch):
+    """Issue 34, one refinement: the comparison's "shortest path refined the same way" is
+    the refinement's own shortest-path candidate, never a second refinement of it — also
+    when that candidate's refinement fails (here made to), when there is then nothing to
+    compare with."""
+    import mpd_pin as mp
+    from mpd_pin.app import motion_step
+    from mpd_pin.motion import refine
+
+    calls: list[list[str]] = []
+    original, one = motion_step.refine_candidates, refine._refine_one
+
+    def counted(*args, **kwargs):
+        calls.append(sorted(args[3]))
+        return original(*args, **kwargs)
+
+    def failing(drive, W, checker, options, motion, memo, rec, *args, **kwargs):
+        if rec["name"] == "shortest path":
+            raise ValueError("made to fail by the test")
+        return one(drive, W, checker, options, motion, memo, rec, *args, **kwargs)
+
+    monkeypatch.setattr(motion_step, "refine_candidates", counted)
+    plan = mp.plan("case2", num_nodes=60, refine=True, execution="auto", show_progress=False)
+    cmp = plan.comparison
+    assert cmp["shortest_path"]["nodes"] != plan.roadmap_path.nodes  # two paths, two candidates
+    assert calls == [["alternative 1", "energy optimum", "shortest path"]]
+    cand = {c["name"]: c for c in plan.to_dict()["motion"]["refinement"]["candidates"]}
+    assert cmp["refined_shortest_path"]["total_energy"] == cand["shortest path"]["total_energy"]
+
+    calls.clear()
+    monkeypatch.setattr(refine, "_refine_one", failing)
+    plan = mp.plan("case2", num_nodes=60, refine=True, execution="auto", show_progress=False)
+    assert len(calls) == 1
+    cand = {c["name"]: c for c in plan.to_dict()["motion"]["refinement"]["candidates"]}
+    assert cand["shortest path"]["reason"] == "made to fail by the test"
+    assert "refined_shortest_path" not in plan.comparison

@@ -301,11 +301,13 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
                               f"{many}", (w0, c0))
     short_motion = None
     if shortest is not None:
+        # one refinement (issue 34): the shortest path is one of the candidates, so its
+        # motion is the one refined there (None when its refinement failed: not again)
         short_motion = refined.by_name.get(SHORTEST)
-        if short_motion is None:
+        if SHORTEST not in cands:
             if list(shortest.path) == list(plan.path):
                 short_motion = refined.by_name[OPTIMUM]
-            else:
+            else:  # not refined (refine off): priced the same way
                 try:
                     short_motion = refine_candidates(
                         drive, checker, scn.options, {SHORTEST: roadmap.nodes[shortest.path]},

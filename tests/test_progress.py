@@ -158,6 +158,25 @@ def test_lazy_plan_shows_edge_checks_and_rounds(small_quickstart, capfd):
     assert f"{2 * setup.lazy.count.pairs_checked} edge checks" in err
 
 
+def test_lazy_edge_bounds_show_a_bar_and_equal_one_call(small_quickstart, capfd,
+                                                         monkeypatch):
+    """The lazy roadmap's edge bounds run in chunks with an "edge bounds" bar (issue 34);
+    the chunks give the same bounds, bit for bit, as one call over every edge."""
+    import mpd_pin.planning.lazy as lazy
+
+    monkeypatch.setattr(lazy, "BOUND_CHUNK", 97)  # several chunks on a small roadmap
+    capfd.readouterr()
+    setup = prepare(small_quickstart, show_progress=True)
+    err = capfd.readouterr().err
+    rm, le = setup.roadmap, setup.lazy
+    assert rm.num_edges > 3 * 97
+    assert re.search(rf"^edge bounds: {rm.num_edges} edges in \d+\.\d s$", err, re.M), err
+    whole = le.bound(rm.nodes[rm.src], le._Q1, rm.durations)
+    np.testing.assert_array_equal(le.lower, whole)
+    setup = prepare(small_quickstart, show_progress=False)
+    assert "edge bounds" not in capfd.readouterr().err
+
+
 def _pairs(setup) -> int:
     """Candidate pairs of a setup's roadmap (the edge-check bar's total)."""
     arm, rm = setup.drive.arm, setup.roadmap

@@ -58,9 +58,12 @@ _LAZY = {
     "plan": "app.api",
     "EnergyPlanner": "app.planner",
     "Plan": "app.planned",
+    "Leg": "app.legs",
+    "Cycle": "app.cycle",
     "MpdPinError": "errors",
     "NoPathError": "errors",
     "NoMotionWithinDuration": "errors",
+    "CycleTimeTooShort": "errors",
 }
 
 #: public names defined under another name in their module

@@ -29,3 +29,18 @@ class NoMotionWithinDuration(MpdPinError):
         self.max_duration = max_duration
         #: result.json as written by ``mpd-pin run`` (None until saved)
         self.result: dict[str, Any] | None = None
+
+
+class CycleTimeTooShort(NoMotionWithinDuration):
+    """A cycle time below the fastest cycle: the sum of the legs' fastest motions and the
+    dwells (a planning outcome, like :class:`NoMotionWithinDuration`; ``mpd-pin run``
+    exits with status 3). ``minimum`` (s, also ``fastest``) is that sum, ``max_duration``
+    (s) the cycle time asked for, ``legs`` the fastest duration of each leg (s) and
+    ``dwell`` the dwells' sum (s)."""
+
+    def __init__(self, message: str, minimum: float, cycle_time: float,
+                 legs: list[float], dwell: float) -> None:
+        super().__init__(message, minimum, None, max_duration=cycle_time)
+        self.minimum = float(minimum)
+        self.legs = [float(x) for x in legs]
+        self.dwell = float(dwell)

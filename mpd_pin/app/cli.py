@@ -2,7 +2,8 @@
 
     mpd-pin --version                       the installed version
     mpd-pin scenarios                       list the built-in scenarios
-    mpd-pin show NAME                       print a built-in scenario's TOML (a starting point)
+    mpd-pin show NAME [--all]               print a built-in scenario's TOML (a starting point;
+                                            --all: with every section and its defaults)
     mpd-pin run NAME|FILE --out DIR         plan a scenario, write result.json, plots, replay.html
         [--seed N] [--planner NAME]         (planners: mpd_pin.search.PLANNERS, listed by --help)
         [--evaluation lazy|eager]           (override [roadmap] evaluation)
@@ -76,14 +77,20 @@ def cmd_scenarios(_: argparse.Namespace) -> int:
 
 def cmd_show(args: argparse.Namespace) -> int:
     """Print the TOML text of the built-in scenario ``args.name`` as shipped (copy it to a
-    file and edit it: ``mpd-pin show case1 > my_scene.toml``)."""
+    file and edit it: ``mpd-pin show case1 > my_scene.toml``); with ``--all``, every
+    section and each key left to its default added (:func:`mpd_pin.app.show.with_defaults`)."""
     from .scenario_files import builtin_scenarios
 
     scenarios = builtin_scenarios()
     if args.name not in scenarios:
         raise ConfigError(f"unknown built-in scenario {args.name!r}; the built-in scenarios are: "
                           f"{', '.join(scenarios)}")
-    sys.stdout.write(scenarios[args.name].read_text(encoding="utf-8"))
+    text = scenarios[args.name].read_text(encoding="utf-8")
+    if args.all:
+        from .show import with_defaults
+
+        text = with_defaults(text, args.name)
+    sys.stdout.write(text)
     return 0
 
 
@@ -276,6 +283,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("show", help="print a built-in scenario's TOML (a starting point for "
                        "your own: mpd-pin show case1 > my_scene.toml)")
     p.add_argument("name", help="built-in scenario name (mpd-pin scenarios lists them)")
+    p.add_argument("--all", action="store_true",
+                   help="add every section and each key left to its default, marked "
+                        "'# default' (energy scenarios)")
     p.set_defaults(func=cmd_show)
     p = sub.add_parser("run", help="plan a scenario and write result.json, plots and replay.html",
                        epilog=_planners_help())

@@ -81,6 +81,10 @@ def _run_energy(scn, out_dir: Path, *, show_progress: bool, cache: Path | None, 
 
 
 def _summary_energy(scn, result: dict[str, Any], out_dir: Path) -> str:
+    if getattr(scn, "cycle", None) is not None:  # a cycle's cycle.json (issue 33)
+        from .cycle import cycle_summary
+
+        return cycle_summary(scn, result, out_dir)
     per_joint = ", ".join(f"{e:.4g}" for e in result["energy_per_joint"])
     supply = result.get("supply") or {"bus": "per_joint"}
     if supply["bus"] != "per_joint":  # the total is the bus's; the joints' E⁺ would not sum

@@ -25,8 +25,11 @@ where every non-finite number is ``null``) holds:
   ``penalty_floor: null`` — unused; margins ``null`` — no hazard), ``execution``
   (``ExecutionResult.to_dict``, energies unpenalised), when they ran;
 * ``search`` — the first plan's ``initial_plan_seconds``, ``expansions`` (and
-  ``edge_evaluations``);
-* ``path`` — ``nodes``, ``configurations`` (rad), ``length_nodes``, ``node_times`` (s: the
+  ``edge_cost_reads``, the times the search read an edge's cost, also under its old name
+  ``edge_evaluations``; the edges simulated are ``roadmap.edges_evaluated``);
+* ``path`` — the roadmap path (``what`` says so in words: the search's node sequence,
+  stop-and-go at the roadmap's edge timing; the returned motion is ``motion``):
+  ``nodes``, ``configurations`` (rad), ``length_nodes``, ``node_times`` (s: the
   arm is at ``nodes[k]`` at ``node_times[k]``); ``energy_per_joint`` and ``total_energy``
   (E⁺, J, unpenalised);
 * ``path`` also has ``length_rad``: Σ over its edges of ‖Δq‖₂ (rad);
@@ -65,8 +68,9 @@ import numpy as np
 from ..dynamics.current import current_model
 from ..dynamics.motor import PAPER_MOTOR, DCMotor
 from ..dynamics.supply import energy_by_supply
+from ..motion.series import motion_series
 from ..planning.roadmap import Roadmap
-from .motion_step import RunMotion, path_supply_energy, roadmap_path_record
+from .motion_step import RunMotion, path_supply_energy, roadmap_motion, roadmap_path_record
 from .plan import PlanResult, Setup, path_length
 from .results import to_jsonable, write_json
 from .scenario import EnergyScenario
@@ -77,10 +81,13 @@ __all__ = [
     "REPLAY_SAMPLES",
     "replay_indices",
     "make_figures",
+    "energy_comparison",
     "write_plots",
     "write_replay_html",
     "result_record",
     "comparison_record",
+    "search_record",
+    "path_what",
     "write_result",
     "timing_record",
     "SHORTEST_LABEL",
@@ -167,7 +174,8 @@ def make_figures(
     """The figures of a run by file name: ``path.png``, ``joint_angles.png``,
     ``energy.png`` (paper 000 Figs. 12–17); with
     ``shortest`` (its plan and re-simulation) the path figure overlays the shortest
-    joint-space path and the energy figure shows both cumulative totals. ``check`` holds
+    joint-space path (drawn once, named as both, when its nodes are the path's) and the
+    energy figure compares like with like (:func:`energy_comparison`). ``check`` holds
     the series of what the arm runs; with a refined ``motion`` (docs/design.md §9f) the
     path figure shows its waypoints over the roadmap path, and ``energy_duration.png``
     its energy against duration."""
@@ -195,23 +203,27 @@ def make_figures(
     names = scn.arm.joint_names
     others = {k: roadmap.nodes[v] for k, v in plan.other_paths.items()}
     supply = setup.drive.supply
-    compare = None
-    if shortest is not None:
-        sp, sc = shortest
-        e_short = path_supply_energy(roadmap, sp.path, sp.energy)
-        label = f"{SHORTEST_LABEL} ({e_short:.4g} J)"
-        others[label] = roadmap.nodes[sp.path]
-        compare = (sc.series["t"], _drawn(supply, sc.series), SHORTEST_LABEL)
-    Q_nodes = roadmap.nodes[path]
+    refined = motion is not None and motion.refined is not None
+    same = shortest is not None and list(shortest[0].path) == list(path)
     e_plan = path_supply_energy(roadmap, path, plan.energy)
+    path_label = "arm at each path node"
+    if shortest is not None and not same:
+        sp = shortest[0]
+        e_short = path_supply_energy(roadmap, sp.path, sp.energy)
+        others[f"{SHORTEST_LABEL} ({e_short:.4g} J)"] = roadmap.nodes[sp.path]
+    elif same and not refined:  # the path drawn is the shortest one too: say so, once
+        path_label = f"arm at each path node (the path is also the {SHORTEST_LABEL})"
+    Q_nodes = roadmap.nodes[path]
     title = f"{scn.name}: {e_plan:.4g} J, {len(path)} nodes"
-    if motion is not None and motion.refined is not None:
+    if refined:
         Q_nodes = motion.energy.waypoints
-        others[f"roadmap path (MPD* Lite, {e_plan:.4g} J)"] = roadmap.nodes[path]
+        also = f" = the {SHORTEST_LABEL}" if same else ""
+        others[f"roadmap path (MPD* Lite, {e_plan:.4g} J){also}"] = roadmap.nodes[path]
         title = (f"{scn.name}: {motion.energy.total_energy:.4g} J {motion.energy.execution}, "
                  f"{len(Q_nodes)} waypoints")
     # the paper motor's warning (run_warnings) on every figure that shows its energies
     note = f"\n(the paper's Table 7 motor: {PAPER_MOTOR_NOTE})" if run_warnings(scn) else ""
+    total_label, compare = energy_comparison(scn, setup, plan, shortest, motion)
     figs = {
         "path.png": plot_arm_path(
             scn.arm,
@@ -222,12 +234,13 @@ def make_figures(
             node_times=t_nodes,
             detections=detections,
             title=title + note,
+            path_label=path_label,
         ),
         "joint_angles.png": plot_joint_angles(
             series["t"], series["q"], names, node_times=series["node_times"]
         ),
         "energy.png": plot_cumulative_energy(
-            series["t"], series["energy_t"], names, compare=compare,
+            series["t"], series["energy_t"], names, compare=compare, total_label=total_label,
             supply=None if supply.is_default else (_drawn(supply, series),
                                                    _supply_label(supply)),
             title=("cumulative electrical energy per joint" + note) if note else "",
@@ -241,6 +254,70 @@ def make_figures(
         figs["energy_duration.png"] = plot_energy_duration(rows, returned, max_duration=cap,
                                                            title=scn.name + note)
     return figs
+
+
+def _same_motion(a, b) -> bool:
+    """Whether two :class:`~mpd_pin.motion.MotionEnergy` are one motion (same execution,
+    waypoints and piece durations)."""
+    if a is b:
+        return True
+    return (a.execution == b.execution and a.waypoints.shape == b.waypoints.shape
+            and bool(np.array_equal(a.waypoints, b.waypoints))
+            and bool(np.array_equal(np.asarray(a.piece_durations, float),
+                                    np.asarray(b.piece_durations, float)))
+            and (a.curve is None) == (b.curve is None))
+
+
+def energy_comparison(
+    scn: EnergyScenario,
+    setup: Setup,
+    plan: PlanResult,
+    shortest: tuple[PlanResult, Verification] | None,
+    motion: RunMotion | None,
+) -> tuple[str, list[tuple[np.ndarray, np.ndarray, str]]]:
+    """What ``energy.png`` compares, like with like (docs/design.md §7c, §9f): (the name of
+    the figure's own total, the compared totals as (t (s), cumulative supply energy (J),
+    name)).
+
+    * a refined motion and the shortest path refined the same way
+      (``RunMotion.shortest``): the returned motion against that motion (its series
+      simulated here), or nothing when it is the returned motion itself, the total then
+      saying so;
+    * the roadmap path returned as it is (no refinement; or no ``motion``): the roadmap
+      path against the shortest roadmap path (the comparison's re-simulation), or nothing
+      when their nodes are the same;
+    * a refined motion without a refined shortest path (none within ``max_duration``): the
+      returned motion alone, and the two roadmap paths (energy optimum, simulated here
+      stop-and-go, and shortest), each unrefined, against each other."""
+    supply = setup.drive.supply
+    if motion is not None and motion.refined is not None:
+        returned = f"returned motion, {motion.energy.execution}"
+        sm = motion.shortest
+        if sm is not None:
+            if _same_motion(sm, motion.energy):
+                return (f"{returned}; the {SHORTEST_LABEL} refined the same way is this "
+                        "motion"), []
+            ss = motion_series(setup.drive, sm, scn.options.dt)
+            return returned, [(ss["t"], _drawn(supply, ss),
+                               f"{SHORTEST_LABEL} refined the same way, {sm.execution}")]
+        if shortest is None:
+            return returned, []
+        sc = shortest[1]  # the optimum as a stop-and-go motion, its edges in one batch
+        opt = motion_series(setup.drive, roadmap_motion(setup.drive, setup, plan, None),
+                            scn.options.dt)  # (roadmap_motion does not read its check)
+        return (f"{returned}; no {SHORTEST_LABEL} refined the same way to compare with"), [
+            (opt["t"], _drawn(supply, opt), "energy-optimal roadmap path, unrefined, "
+                                             "stop-and-go"),
+            (sc.series["t"], _drawn(supply, sc.series),
+             f"{SHORTEST_LABEL} on the roadmap, unrefined, stop-and-go")]
+    optimum = "energy-optimal roadmap path, stop-and-go"
+    if shortest is None:
+        return optimum, []
+    sp, sc = shortest
+    if list(sp.path) == list(plan.path):
+        return f"{optimum}; it is also the {SHORTEST_LABEL}", []
+    return optimum, [(sc.series["t"], _drawn(supply, sc.series),
+                      f"{SHORTEST_LABEL} on the roadmap, stop-and-go")]
 
 
 def _drawn(supply, series: dict[str, np.ndarray]) -> np.ndarray:
@@ -425,8 +502,9 @@ def result_record(
         record["hazard_replanning"] = plan.hazard.to_dict()
     if plan.execution is not None:
         record["execution"] = plan.execution.to_dict()
-    record["search"] = plan.search
+    record["search"] = search_record(plan.search)
     record["path"] = {
+        "what": path_what(plan, motion),
         "nodes": [int(n) for n in plan.path],
         "configurations": setup.roadmap.nodes[plan.path],
         "length_nodes": len(plan.path),
@@ -460,6 +538,33 @@ def result_record(
         setup.roadmap.timings["edge_bounds"] = setup.lazy.bound_seconds
     record.update(timing_record(setup.roadmap, clock))
     return record
+
+
+def search_record(search: dict[str, Any]) -> dict[str, Any]:
+    """``search`` of result.json: the first plan's counters as the planner gave them, and
+    ``edge_cost_reads`` — the new name of ``edge_evaluations`` (kept for old readers): how
+    many times the search read an edge's cost (the same edge counted each time, a lazy
+    bound included), not how many edges were simulated (``roadmap.edges_evaluated``)."""
+    out = dict(search)  # the PlanResult's own dict stays as it is
+    if "edge_evaluations" in out:
+        out["edge_cost_reads"] = out["edge_evaluations"]
+    return out
+
+
+def path_what(plan: PlanResult, motion: RunMotion | None) -> str:
+    """``path.what`` of result.json: one sentence saying that ``path`` is the roadmap path
+    (the search's nodes, timed stop-and-go as the roadmap's edges are) and where the
+    motion the arm runs is (``motion``)."""
+    kind = "travelled roadmap path (executed with sensing and repair)" if (
+        plan.execution is not None) else "roadmap path"
+    text = (f"the {kind}: the search's node sequence, stop-and-go, each edge at the "
+            "roadmap's timing (node_times)")
+    if motion is None:
+        return text
+    if motion.refined is None:
+        return text + "; the returned motion (motion) is this path as it is"
+    return (text + "; the returned motion, which the arm runs, is motion (its own waypoints "
+            "and node_times)")
 
 
 def _saved_percent(e_opt: float, e_short: float) -> float:

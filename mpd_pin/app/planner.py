@@ -24,14 +24,17 @@ from typing import Any
 import numpy as np
 
 from ..dynamics.motor import Drive
+from ..dynamics.payload import Payload
 from ..errors import NoMotionWithinDuration
 from ..motion.refine import MotionOptions
 from ..planning.roadmap import COLLISIONS, RoadmapOptions, npz_path
 from ..search.registry import DEFAULT_PLANNER, PLANNERS
 from ..world import World
 from .config import ConfigError
+from .cycle import Cycle, plan_cycle
 from .motion_step import make_motion
 from .outputs import add_motion_comparison, cache_record, comparison_record
+from .payload_legs import PayloadLegs
 from .plan import plan_path, plan_shortest, prepare, requery
 from .planned import Plan, PlanParts
 from .scenario import EVALUATIONS, EnergyScenario
@@ -222,6 +225,9 @@ class EnergyPlanner:
         self.trajectory_rate = float(trajectory_rate)
         self._setup = None
         self._compute = None
+        #: the roadmap of the bare arm, whose nodes every leg shares; per-payload setups
+        self._base = None
+        self._payloads = PayloadLegs()
 
     # ------------------------------------------------------------------ resources
     def open(self) -> EnergyPlanner:
@@ -252,11 +258,16 @@ class EnergyPlanner:
         return None if self._setup is None else self._setup.roadmap
 
     # ------------------------------------------------------------------ queries
-    def plan(self, start: Any, goal: Any, *, max_duration: float | None = None) -> Plan:
+    def plan(self, start: Any, goal: Any, *, max_duration: float | None = None,
+             payload: Payload | None = None) -> Plan:
         """The minimum-energy motion from ``start`` to ``goal`` (rad, one value per joint):
         a :class:`~mpd_pin.app.planned.Plan`. ``max_duration`` (s): the longest the motion
         may take, for this query (None: the planner's ``MotionOptions.max_duration``).
-        ValueError for a configuration outside the limits or in collision, ConfigError for a
+        ``payload``: a :class:`~mpd_pin.Payload` (kg, m) carried on this leg, in the
+        dynamics (``drive.with_payload``) and the collision checks; every leg shares the
+        roadmap's nodes, its edges certified and priced per payload (docs/design.md §4i).
+        ValueError for a configuration outside the limits or in collision (with the part:
+        naming what it touches), ConfigError for a
         bad ``max_duration``; :class:`~mpd_pin.NoPathError` when the roadmap joins none;
         :class:`~mpd_pin.NoMotionWithinDuration` when no motion runs within
         ``max_duration`` (its ``.plan`` holds the fastest one found, ``.fastest`` its
@@ -268,22 +279,30 @@ class EnergyPlanner:
             base = replace(base, motion=replace(base.motion,
                                                 max_duration=check_max_duration(max_duration)))
         nq = base.arm.nq
-        scn = replace(base, start=_configuration(start, nq, "start"),
-                      goal=_configuration(goal, nq, "goal"))
+        bare = replace(base, start=_configuration(start, nq, "start"),
+                       goal=_configuration(goal, nq, "goal"))
+        scn = self._payloads.scenario(bare, payload)  # the arm carrying the part
         holding = Drive(scn.arm, scn.motor, scn.kp, scn.kd, feedforward=scn.feedforward)
         for what, q in (("start", scn.start), ("goal", scn.goal)):
             check_holding(holding, q, what, effort_limits=scn.options.effort_limits)
         self.open()
         clock = PhaseClock()
         with clock.phase("roadmap"):
-            if self._setup is None:
+            self._payloads.settle(self._base)
+            if self._base is None:
                 reused = self.cache is not None and npz_path(self.cache).exists()
-                self._setup = prepare(scn, cache=self.cache, show_progress=self.show_progress,
-                                      compute=self._compute)
+                self._base = prepare(bare, cache=self.cache, show_progress=self.show_progress,
+                                     compute=self._compute)
                 cache = cache_record(self.cache, reused)
             else:
-                self._setup = requery(self._setup, scn, show_progress=self.show_progress)
+                self._base = requery(self._base, bare, show_progress=self.show_progress)
                 cache = cache_record(None, False)
+            self._setup = self._base
+            if payload is not None:
+                self._setup, path, reused = self._payloads.setup(
+                    scn, self._base, cache=self.cache, compute=self._compute,
+                    show_progress=self.show_progress)
+                cache = cache_record(path, reused)
         return self._finish(scn, self._setup, clock, cache)
 
     def plan_legs(self, configurations: Any) -> list[Plan]:
@@ -295,6 +314,24 @@ class EnergyPlanner:
         if len(Q) < 2:
             raise ValueError(f"plan_legs: expected at least 2 configurations, got {len(Q)}")
         return [self.plan(a, b) for a, b in zip(Q[:-1], Q[1:], strict=True)]
+
+    def plan_cycle(self, legs: Any, *, start: Any, cycle_time: float | None = None) -> Cycle:
+        """Plan a cycle: from ``start`` (rad), each :class:`~mpd_pin.Leg` moves to its
+        ``goal`` carrying its ``payload`` and then waits ``dwell`` s there, on one roadmap.
+        ``cycle_time`` (s): motions and dwells together, shared between the legs to
+        minimise the total energy (J) on each leg's energy–time front; None: each leg
+        follows its own duration rule. A :class:`~mpd_pin.app.cycle.Cycle` (``legs``,
+        ``total_energy``, ``to_dict()``, ``save(dir)``); ``mp.CycleTimeTooShort`` (a
+        ``NoMotionWithinDuration``) names the shortest possible cycle when ``cycle_time``
+        is below it (docs/design.md §8b; :mod:`mpd_pin.app.cycle`)."""
+        if cycle_time is not None:
+            cycle_time = check_max_duration(cycle_time, "cycle_time")
+
+        def check(a: np.ndarray, b: np.ndarray, part: Payload) -> None:
+            self._payloads.scenario(replace(self.scenario, start=a, goal=b), part)
+
+        return plan_cycle(self, legs, start=start, cycle_time=cycle_time,
+                          name=self.scenario.name, check=check)
 
     def _finish(self, scn: EnergyScenario, setup, clock: PhaseClock,
                 cache: dict[str, Any]) -> Plan:

@@ -69,6 +69,10 @@ def run_energy_scenario(
                                           trajectory_rate=trajectory_rate)
     # The cluster first (docs/design.md §4h): one that cannot be reached fails before any work.
     with planner:
+        if getattr(scn, "cycle", None) is not None:  # [cycle]: the legs, cycle.json (issue 33)
+            from .cycle import run_cycle
+
+            return run_cycle(planner, scn, out_dir, replay=replay, plots=plots)
         created = check_output_dir(out_dir)
         try:
             plan = planner.plan(scn.start, scn.goal)

@@ -30,6 +30,8 @@ A scenario of ``kind = "energy"`` (the default; paper 000) looks like::
     seed = 1
     duration = 1.0             # s
     dt = 0.005                 # s
+    # duration_rule = "distance" times each edge by its largest joint move instead, within
+    # [min_duration, max_edge_duration] (s, one edge; [motion] max_duration is the motion's)
 
     [[obstacles]]              # planar shapes in the arm's x–z plane (m, rad) ...
     type = "box"               # box | cylinder | sphere | polygon
@@ -156,6 +158,10 @@ class EnergyScenario:
     #: ``[run] verify``: re-simulate the roadmap paths with the reference ``simulate_edge``
     #: (docs/design.md §7c; off by default: the batched integrator's series is used)
     verify: bool = False
+    #: ``[payloads.NAME]``: the parts a cycle's legs may carry (:class:`~mpd_pin.Payload`)
+    payloads: dict[str, Any] = field(default_factory=dict)
+    #: ``[cycle]``: its legs and cycle time (:class:`~mpd_pin.app.cycle.CycleSpec`), or None
+    cycle: Any = None
 
     def drive(self) -> Drive:
         return Drive(self.arm, self.motor, self.kp, self.kd, feedforward=self.feedforward,
@@ -300,8 +306,22 @@ LIMITS = {
 
 
 def _options(t: Table) -> RoadmapOptions:
+    """``[roadmap]`` as :class:`RoadmapOptions` (the TOML key ``max_edge_duration`` is the
+    field ``max_duration``: the longest *edge* of the distance rule, s — not ``[motion]
+    max_duration``, the whole motion's; the old key is still read, with a
+    ``FutureWarning`` naming both)."""
+    import warnings
+
     d = RoadmapOptions()
     kw: dict[str, Any] = {}
+    old, new = t.key_path("max_duration"), t.key_path("max_edge_duration")
+    if t.has("max_duration") and t.has("max_edge_duration"):
+        raise ConfigError(f"{old}: the old name of {new}; give only max_edge_duration")
+    if t.has("max_duration"):  # the old key: read, with one warning naming both keys
+        warnings.warn(f"{old} is renamed {new} (the longest roadmap edge, s; [motion] "
+                      "max_duration is the whole motion's): read as max_edge_duration; "
+                      "rename the key", FutureWarning, stacklevel=2)
+    edge_key = "max_duration" if t.has("max_duration") else "max_edge_duration"
     for name in ("num_nodes", "k", "seed", "max_attempts"):
         kw[name] = t.integer(
             name, getattr(d, name), minimum=0 if name != "k" else 1, maximum=LIMITS[name]
@@ -312,7 +332,8 @@ def _options(t: Table) -> RoadmapOptions:
     )
     for name in ("duration", "joint_speed", "duration_quantum", "min_duration", "max_duration"):
         upper = LIMITS["duration"] if name != "joint_speed" else None
-        kw[name] = t.number(name, getattr(d, name), positive=True, maximum=upper,
+        key = edge_key if name == "max_duration" else name  # TOML key of the field
+        kw[name] = t.number(key, getattr(d, name), positive=True, maximum=upper,
                             bound=BOUNDS["joint_speed" if name == "joint_speed" else "duration"])
     kw["dt"] = t.number("dt", d.dt, positive=True, bound=BOUNDS["dt"])
     kw["duration_rule"] = t.string("duration_rule", d.duration_rule, choices=("fixed", "distance"))
@@ -324,15 +345,16 @@ def _options(t: Table) -> RoadmapOptions:
     t.done()
     longest = kw["duration"] if kw["duration_rule"] == "fixed" else kw["max_duration"]
     if longest / kw["dt"] > LIMITS["steps_per_edge"]:
-        which = "duration" if kw["duration_rule"] == "fixed" else "max_duration"
+        which = "duration" if kw["duration_rule"] == "fixed" else edge_key
         raise ConfigError(
             f"{t.path}.dt: {which} / dt = {longest:g} s / {kw['dt']:g} s exceeds "
             f"{LIMITS['steps_per_edge']} RK4 steps per edge"
         )
     try:
         return RoadmapOptions(**kw)
-    except ValueError as exc:
-        raise ConfigError(f"{t.path}: {exc}") from None
+    except ValueError as exc:  # named by the TOML key (field max_duration: edge_key)
+        text = re.sub(r"\bmax_duration\b", edge_key, str(exc))
+        raise ConfigError(f"{t.path}: {text}") from None
 
 
 @dataclass(frozen=True)
@@ -584,6 +606,7 @@ def parse_energy_scenario(
     run_t = top.table("run")
     verify = run_t.boolean("verify", False)
     run_t.done()
+    cycle_fields = _cycle_tables(top, arm)  # [payloads.NAME], [cycle] (issue 33)
     top.done()
     holding = Drive(arm, motor, kp, kd, feedforward=ff)  # a motor too weak to hold (§3g)
     for what, q in (("task.start", start), ("task.goal", goal)):
@@ -613,6 +636,7 @@ def parse_energy_scenario(
         collision=collision,
         supply=supply,
         verify=verify,
+        **cycle_fields,
     )
 
 
@@ -626,3 +650,82 @@ def _supply(t: Table) -> Supply:
         return Supply(bus, eta)
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
+
+
+# ------------------------------------------------------------- payloads and cycles (issue 33)
+#: The largest payload mass (kg) and centre-of-mass distance from its frame (m) accepted.
+PAYLOAD_MAX_MASS = 1000.0
+PAYLOAD_MAX_COM = 1.0
+
+
+def _payload_table(t: Table, arm: Arm, name: str):
+    """``[payloads.NAME]``: ``mass`` (kg, > 0), ``com`` (m, in the frame, within
+    :data:`PAYLOAD_MAX_COM` of it), ``inertia`` (kg·m²: 6 values ixx, ixy, ixz, iyy, iyz,
+    izz, or 3 rows), ``size`` (m: one number or 3), ``frame`` (default: the end-effector
+    frame). ConfigError naming the key."""
+    from ..dynamics.payload import Payload, payload_frame
+
+    mass = t.number("mass", positive=True, maximum=PAYLOAD_MAX_MASS)
+    com = t.vector("com", [0.0, 0.0, 0.0], length=3, labels=XYZ)
+    dist = float(np.linalg.norm(com))
+    if dist > PAYLOAD_MAX_COM:
+        raise ConfigError(f"{t.key_path('com')}: the centre of mass is {dist:.4g} m from the "
+                          f"frame, more than {PAYLOAD_MAX_COM:g} m (m, in the frame's "
+                          "coordinates)")
+    inertia = None
+    if t.has("inertia"):
+        raw = t.raw("inertia")
+        rows = raw if isinstance(raw, list) and raw and all(isinstance(r, list)
+                                                              for r in raw) else [raw]
+        flat = [x for r in rows for x in (r if isinstance(r, list) else [r])]
+        if len(flat) not in (6, 9):
+            raise ConfigError(f"{t.key_path('inertia')}: expected 6 numbers (ixx, ixy, ixz, "
+                              "iyy, iyz, izz; kg·m²) or 3 rows of 3")
+        vals = check_array(t.key_path("inertia"), flat)
+        inertia = vals if len(vals) == 6 else [vals[0:3], vals[3:6], vals[6:9]]
+    size = None
+    if t.has("size"):
+        lim = size_bound(arm)
+        size = t.numbers("size", length=3 if isinstance(t.raw("size"), list) else None,
+                         bound=lim)
+    frame = t.string("frame", None)
+    t.done()
+    try:
+        part = Payload(mass=mass, com=tuple(com), inertia=inertia, size=size, frame=frame,
+                       name=name)
+        payload_frame(arm, part)
+    except ValueError as exc:
+        raise ConfigError(str(exc).replace("Payload.", f"{t.path}.", 1)) from None
+    return part
+
+
+def _cycle_table(t: Table, arm: Arm, payloads: dict[str, Any]):
+    """``[cycle]``: ``cycle_time`` (s, optional) and ``[[cycle.legs]]`` with ``goal`` (rad),
+    ``payload`` (a name of ``[payloads]``), ``dwell`` (s, ≥ 0) and ``name``."""
+    from .legs import CycleSpec, Leg
+
+    cycle_time = t.number("cycle_time", None, bound=BOUNDS["max_duration"])
+    legs = []
+    for k, leg in enumerate(t.tables("legs"), 1):
+        goal = np.array(leg.vector("goal", length=arm.nq, bound=_joint_bounds(arm)))
+        part = leg.string("payload", None, choices=tuple(payloads)) if leg.has(
+            "payload") else None
+        dwell = leg.number("dwell", 0.0, nonnegative=True, bound=BOUNDS["delay"])
+        name = leg.string("name", f"leg {k}")
+        leg.done()
+        legs.append(Leg(goal=goal, payload=None if part is None else payloads[part],
+                        dwell=dwell, name=name))
+    t.done()
+    if not legs:
+        raise ConfigError(f"{t.path}.legs: a cycle needs at least one [[cycle.legs]] table")
+    return CycleSpec(legs=tuple(legs), cycle_time=cycle_time)
+
+
+def _cycle_tables(top: Table, arm: Arm) -> dict[str, Any]:
+    """``[payloads.NAME]`` and ``[cycle]`` of a scenario (docs/design.md §7b, issue 33), as
+    the :class:`EnergyScenario` fields ``payloads`` and ``cycle``."""
+    table = top.table("payloads")
+    payloads = {name: _payload_table(table.table(name), arm, name) for name in list(table.data)}
+    table.done()
+    cycle = _cycle_table(top.table("cycle"), arm, payloads) if top.has("cycle") else None
+    return {"payloads": payloads, "cycle": cycle}

@@ -97,9 +97,11 @@ def _model_from_urdf(xml: str, locked: Sequence[tuple[str, float]]) -> pin.Model
 class DriveSpec:
     """A drive as plain data: what a worker needs to rebuild it (docs/design.md §4h).
 
-    urdf: the arm's URDF text (``Arm.urdf_xml``); locked: (joint, value) pairs locked out
-    of it; motors: one ``DCMotor`` field dict per joint; kp (V/rad), kd (V·s/rad) per joint;
-    digest: :func:`model_digest` of the arm's model, checked after the rebuild.
+    urdf: the arm's URDF text (``Arm.urdf_xml``, without any payload); locked: (joint,
+    value) pairs locked out of it; motors: one ``DCMotor`` field dict per joint; kp (V/rad),
+    kd (V·s/rad) per joint; payload: the JSON of the carried part's ``Payload.describe()``
+    ("" for none), put back on the rebuilt arm (``drive.with_payload``); digest:
+    :func:`model_digest` of the arm's model (with the payload), checked after the rebuild.
     """
 
     name: str
@@ -110,18 +112,29 @@ class DriveSpec:
     kd: tuple[float, ...]
     feedforward: bool
     digest: str
+    payload: str = ""
 
     @classmethod
     def of(cls, drive: Drive) -> DriveSpec:
-        """The spec of ``drive``; ValueError if its arm has no URDF text or the URDF does
-        not rebuild its model bit for bit."""
+        """The spec of ``drive``; ValueError if its arm has no URDF text or the URDF (with
+        the drive's payload put back on it) does not rebuild its model bit for bit."""
+        from .payload import carried_payload, payload_arm, unloaded_arm
+
         arm = drive.arm
         if not arm.urdf_xml:
             raise ValueError(f"arm {arm.name!r} has no URDF text (Arm.urdf_xml); it cannot be "
                              "sent to workers — build it with Arm.from_urdf")
         locked = tuple((str(k), float(v)) for k, v in arm.locked_joints.items())
         digest = model_digest(arm.model)
-        if model_digest(_model_from_urdf(arm.urdf_xml, locked)) != digest:
+        part = carried_payload(arm)
+        payload = "" if part is None else json.dumps(part.describe(), sort_keys=True)
+        rebuilt = _model_from_urdf(arm.urdf_xml, locked)
+        if part is not None:
+            if model_digest(rebuilt) != model_digest(unloaded_arm(arm).model):
+                raise ValueError(f"arm {arm.name!r}: its URDF text does not rebuild its model "
+                                 "exactly; it cannot be sent to workers")
+            rebuilt = payload_arm(_dynamics_arm(rebuilt, arm.name), _payload(payload)).model
+        if model_digest(rebuilt) != digest:
             raise ValueError(f"arm {arm.name!r}: its URDF text does not rebuild its model "
                              "exactly; it cannot be sent to workers")
         return cls(
@@ -133,6 +146,7 @@ class DriveSpec:
             kd=tuple(float(x) for x in drive.kd_vec),
             feedforward=bool(drive.feedforward),
             digest=digest,
+            payload=payload,
         )
 
     @property
@@ -141,17 +155,35 @@ class DriveSpec:
         return hashlib.sha256(json.dumps(asdict(self), sort_keys=True).encode()).hexdigest()
 
     def build(self) -> Drive:
-        """A new :class:`Drive` (and dynamics-only :class:`Arm`) from the spec."""
-        from ..arm.model import Arm
-
-        model = _model_from_urdf(self.urdf, self.locked)
-        if model_digest(model) != self.digest:
+        """A new :class:`Drive` (and dynamics-only :class:`Arm`, carrying the spec's payload)
+        from the spec."""
+        arm = _dynamics_arm(_model_from_urdf(self.urdf, self.locked), self.name)
+        motors = [DCMotor(**dict(m)) for m in self.motors]
+        drive = Drive(arm, motors, list(self.kp), list(self.kd), feedforward=self.feedforward)
+        if self.payload:
+            drive = drive.with_payload(_payload(self.payload))
+        if model_digest(drive.arm.model) != self.digest:
             raise RuntimeError(f"worker rebuilt arm {self.name!r} with other dynamics than the "
                                "client (different Pinocchio version?)")
-        arm = Arm(model=model, collision_model=pin.GeometryModel(),
-                  visual_model=pin.GeometryModel(), name=self.name)
-        motors = [DCMotor(**dict(m)) for m in self.motors]
-        return Drive(arm, motors, list(self.kp), list(self.kd), feedforward=self.feedforward)
+        return drive
+
+
+def _dynamics_arm(model: pin.Model, name: str):
+    """A dynamics-only :class:`~mpd_pin.Arm` of ``model`` (no collision or visual shapes)."""
+    from ..arm.model import Arm
+
+    return Arm(model=model, collision_model=pin.GeometryModel(),
+               visual_model=pin.GeometryModel(), name=name)
+
+
+def _payload(text: str):
+    """The :class:`~mpd_pin.Payload` of the JSON of its ``describe()``."""
+    from .payload import Payload
+
+    d = json.loads(text)
+    return Payload(mass=d["mass"], com=tuple(d["com"]), inertia=d["inertia"],
+                   size=None if d["size"] is None else tuple(d["size"]), frame=d["frame"],
+                   name=d["name"])
 
 
 #: Drives rebuilt in this process, by DriveSpec.key (one per worker process and spec).

@@ -6,8 +6,10 @@
   beneath the arm's thick links, in a fixed draw order — docs/design.md §7c);
 * :func:`plot_joint_angles` — joint angles (rad) against time (s), for both papers
   (paper 002's figures in :mod:`mpd_pin.twolink.plots` use it too);
-* :func:`plot_cumulative_energy` — E⁺ per joint (J) accumulated against time (s),
-  optionally with labelled vertical lines at given times (e.g. re-planning).
+* :func:`plot_cumulative_energy` — E⁺ per joint (J) accumulated against time (s), each
+  total named for what it is, with the totals of the motions or paths compared to it,
+  optionally with labelled vertical lines at given times (e.g. re-planning);
+* :func:`plot_energy_duration` — E⁺ (J) against duration (s) of every candidate motion.
 
 All functions return a ``matplotlib.figure.Figure`` and never call ``show``.
 """
@@ -26,11 +28,13 @@ from ..world import Box, Cylinder, Hazard, Polygon, Sphere, World
 __all__ = [
     "draw_world_xz",
     "draw_world_3d",
+    "label_anchor_3d",
     "shape_faces",
     "arm_points",
     "ee_trace",
     "is_planar_xz",
     "plot_arm_path",
+    "other_linestyle",
     "Detection",
     "chain_reach",
     "clearance_band_xz",
@@ -81,8 +85,9 @@ def draw_world_xz(ax, world: World | None, *, show_hidden: bool = True) -> list:
         )
         ax.add_patch(patch)
         patches.append(patch)
-        cx, cz = section.mean(axis=0)
-        ax.annotate(item.name, (cx, cz), ha="center", va="center", fontsize=7)
+        cx, cz = section.mean(axis=0)  # inside its own (convex) section
+        ax.annotate(item.name, (cx, cz), ha="center", va="center", fontsize=7,
+                    gid=f"label:{item.name}")
     return patches
 
 
@@ -158,8 +163,9 @@ def draw_world_3d(ax, world: World | None, *, show_hidden: bool = True,
     translucent with light edges, so that lines drawn over them stay visible. Each
     collection's ``gid`` is the obstacle's name, its zorder in [``zorder``, ``zorder`` +
     0.5): farther from the axes' current view first (matplotlib orders whole collections
-    by zorder when ``ax.computed_zorder`` is False). Returns the ``Poly3DCollection``
-    objects.
+    by zorder when ``ax.computed_zorder`` is False). Each name is written on its solid's
+    top, away from the other solids (:func:`label_anchor_3d`; the text's ``gid`` is
+    ``"label:<name>"``). Returns the ``Poly3DCollection`` objects.
     """
     from matplotlib.colors import to_rgba
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
@@ -169,6 +175,8 @@ def draw_world_3d(ax, world: World | None, *, show_hidden: bool = True,
     depth = [float(np.dot(eye, shape.position)) for _, shape, _, _ in items]
     rank = {k: r for r, k in enumerate(np.argsort(depth, kind="stable"))}
     out = []
+    boxes = [np.array([f.min(axis=0), f.max(axis=0)])
+             for f in (np.concatenate(shape_faces(shape)) for _, shape, _, _ in items)]
     for k, (item, shape, hidden, color) in enumerate(items):
         if isinstance(item, Hazard):
             alpha = 0.2
@@ -189,11 +197,39 @@ def draw_world_3d(ax, world: World | None, *, show_hidden: bool = True,
         coll.set_gid(item.name)
         ax.add_collection3d(coll)
         out.append(coll)
-        top = np.concatenate(shape_faces(shape))  # the name above the solid's top
-        x, y = shape.position[0], shape.position[1]
-        ax.text(x, y, float(top[:, 2].max()), item.name, fontsize=7, color="0.25",
-                ha="center", va="bottom", zorder=zorder + 0.5)
+        x, y, z = label_anchor_3d(boxes, k)  # on its top, away from the other solids
+        ax.text(x, y, z, item.name, fontsize=7, color="0.25", ha="center", va="bottom",
+                zorder=zorder + 0.5, gid=f"label:{item.name}")
     return out
+
+
+def _box_distance(p: np.ndarray, box: np.ndarray) -> float:
+    """Distance (m) of the point ``p`` to the axis-aligned box ``box`` = [lo, hi] (2, 3)."""
+    return float(np.linalg.norm(np.maximum(np.maximum(box[0] - p, p - box[1]), 0.0)))
+
+
+def label_anchor_3d(boxes: Sequence[np.ndarray], k: int, grid: int = 9) -> np.ndarray:
+    """Where the name of solid ``k`` is written (m): on the top of its axis-aligned box
+    ``boxes[k]`` (each (2, 3): [lo, hi]), at the point nearest its centre that keeps a
+    margin — a tenth of the scene's largest extent — from every other solid's box (a
+    label at a table's centre sat on the wall standing there); without such a point,
+    the one farthest from them. Candidates: a ``grid`` × ``grid`` grid over the inner 80 %
+    of the top."""
+    lo, hi = boxes[k]
+    top = float(hi[2])
+    centre = np.array([(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, top])
+    others = [b for j, b in enumerate(boxes) if j != k]
+    if not others:
+        return centre
+    every = np.concatenate(boxes)
+    margin = 0.1 * float(np.max(every.max(axis=0) - every.min(axis=0)))
+    u = np.linspace(-0.4, 0.4, grid)
+    xs, ys = centre[0] + u * (hi[0] - lo[0]), centre[1] + u * (hi[1] - lo[1])
+    cands = np.array([[x, y, top] for x in xs for y in ys])
+    cands = cands[np.argsort(np.linalg.norm(cands - centre, axis=1), kind="stable")]
+    clear = np.array([min(_box_distance(c, b) for b in others) for c in cands])
+    ok = np.flatnonzero(clear >= margin)
+    return cands[ok[0]] if ok.size else cands[int(np.argmax(clear))]
 
 
 def _view_direction(ax) -> np.ndarray:
@@ -392,21 +428,37 @@ def _mark_detections(ax, arm: Arm, detections: Sequence[Detection], planar: bool
                           "alpha": 0.8})
 
 
-def _draw_planar(ax, arm, world, Q_nodes, trace, others, colors) -> None:
+#: Dash length (points) of the compared paths' end-effector lines.
+OTHER_DASH = 5.0
+
+
+def other_linestyle(k: int, n: int):
+    """Line style of the ``k``-th of ``n`` compared paths: dashed; with several, the dashes
+    interleave (each on for one dash, off for the others' dashes, offset by ``k`` dashes),
+    so where their lines coincide every colour shows instead of the last one drawn."""
+    if n <= 1:
+        return "--"
+    return (k * OTHER_DASH, (OTHER_DASH, (n - 1) * OTHER_DASH))
+
+
+def _draw_planar(ax, arm, world, Q_nodes, trace, others, colors,
+                 path_label: str = "arm at each path node") -> None:
     """The x–z plane content of :func:`plot_arm_path` (poses, traces, obstacles, bands)."""
     from matplotlib.patches import Circle
 
+    shown = min(len(others), len(OTHER_COLORS))
     draw_world_xz(ax, world)
     draw_clearance_bands_xz(ax, world)
     for k, (q, c) in enumerate(zip(Q_nodes, colors, strict=True)):
         p = arm_points(arm, q)
         ax.plot(p[:, 0], p[:, 2], "-o", color=c, lw=2, ms=3,
-                label="arm at each path node" if k == 0 else None)
+                label=path_label if k == 0 else None)
     ax.plot(trace[:, 0], trace[:, 2], "-", color=TRACE_COLOR, lw=1.5,
             label="end-effector trace (travelled)")
-    for (name, Qo), col in zip(others.items(), OTHER_COLORS, strict=False):
+    for k, ((name, Qo), col) in enumerate(zip(others.items(), OTHER_COLORS, strict=False)):
         tr = ee_trace(arm, Qo)
-        ax.plot(tr[:, 0], tr[:, 2], "--", color=col, lw=1.5, label=f"{name}: end effector")
+        ax.plot(tr[:, 0], tr[:, 2], ls=other_linestyle(k, shown), color=col, lw=1.5,
+                label=f"{name}: end effector", gid=f"other:{name}")
         for k, q in enumerate(Qo):
             p = arm_points(arm, q)
             ax.plot(p[:, 0], p[:, 2], ":", color=col, lw=1.2, alpha=0.8,
@@ -433,7 +485,8 @@ def _base_position(arm: Arm) -> np.ndarray:
     return parent.placement.translation.copy()
 
 
-def _draw_3d(ax, arm, world, Q_nodes, trace, others, colors) -> None:
+def _draw_3d(ax, arm, world, Q_nodes, trace, others, colors,
+             path_label: str = "arm at each path node") -> None:
     """The 3-D content of :func:`plot_arm_path`, framed with equal scales on all axes.
 
     Matplotlib's automatic depth sort orders whole artists by one depth each, so a large
@@ -442,15 +495,16 @@ def _draw_3d(ax, arm, world, Q_nodes, trace, others, colors) -> None:
     ax.computed_zorder = False
     ax.set_proj_type("ortho")  # no perspective: heights compare across the figure
     draw_world_3d(ax, world, zorder=Z_WORLD)
-    for (name, Qo), col in zip(others.items(), OTHER_COLORS, strict=False):
+    shown = min(len(others), len(OTHER_COLORS))
+    for k, ((name, Qo), col) in enumerate(zip(others.items(), OTHER_COLORS, strict=False)):
         tr = ee_trace(arm, Qo)
-        ax.plot(tr[:, 0], tr[:, 1], tr[:, 2], "--", color=col, lw=1.5, zorder=Z_OTHERS,
-                label=f"{name}: end effector")
+        ax.plot(tr[:, 0], tr[:, 1], tr[:, 2], ls=other_linestyle(k, shown), color=col,
+                lw=1.5, zorder=Z_OTHERS, label=f"{name}: end effector", gid=f"other:{name}")
     for k, (q, c) in enumerate(zip(Q_nodes, colors, strict=True)):
         p = arm_points(arm, q)
         ax.plot(p[:, 0], p[:, 1], p[:, 2], "-o", color=c, lw=LINK_WIDTH_3D, ms=3.5,
                 mec="white", mew=0.5, solid_capstyle="round", zorder=Z_POSES + k / len(Q_nodes),
-                gid="pose", label="arm at each path node" if k == 0 else None)
+                gid="pose", label=path_label if k == 0 else None)
     ax.plot(trace[:, 0], trace[:, 1], trace[:, 2], "-", color=TRACE_COLOR, lw=2.0,
             zorder=Z_TRACE, gid="trace", label="end-effector trace (travelled)")
     base, mount = _base_position(arm), arm.model.jointPlacements[1].translation
@@ -492,6 +546,7 @@ def plot_arm_path(
     detections: Sequence[Detection] = (),
     start: np.ndarray | None = None,
     goal: np.ndarray | None = None,
+    path_label: str = "arm at each path node",
 ):
     """The arm at each path node over the world, with the end-effector trace (docs/design.md §7c).
 
@@ -504,6 +559,10 @@ def plot_arm_path(
     marked — at ``start``/``goal`` (rad) if given (a figure of part of a path), else at the
     first and last node; hazards' clearance bands are drawn (planar). Planar arms: axis
     limits contain the arm's reach (:func:`chain_reach`), every obstacle and every band.
+    ``path_label`` names the poses in the legend (e.g. that the path is also a compared
+    one). The compared paths' end-effector lines are dashed, their dashes interleaved
+    (:func:`other_linestyle`) so that coinciding stretches show every colour; each line's
+    ``gid`` is ``"other:<name>"``.
     """
     import matplotlib.pyplot as plt
     from matplotlib.cm import ScalarMappable
@@ -518,10 +577,10 @@ def plot_arm_path(
     fig = plt.figure(figsize=(8, 8.6) if planar else (8, 8))
     if planar:
         ax = fig.add_subplot()
-        _draw_planar(ax, arm, world, Q_nodes, trace, others, colors)
+        _draw_planar(ax, arm, world, Q_nodes, trace, others, colors, path_label)
     else:
         ax = fig.add_subplot(projection="3d")
-        _draw_3d(ax, arm, world, Q_nodes, trace, others, colors)
+        _draw_3d(ax, arm, world, Q_nodes, trace, others, colors, path_label)
     q0 = Q_nodes[0] if start is None else np.asarray(start, float)
     q1 = Q_nodes[-1] if goal is None else np.asarray(goal, float)
     ends = arm_points(arm, q0)[-1], arm_points(arm, q1)[-1]
@@ -567,40 +626,56 @@ def plot_joint_angles(
     return fig
 
 
+#: Line styles and colours of the compared totals in ``energy.png``, in order.
+COMPARE_STYLES = ((":", "#d62828"), ("-.", "#6a4c93"), ((0, (1, 3)), "#1982c4"))
+
+
 def plot_cumulative_energy(
     t: np.ndarray,
     energy_t: np.ndarray,
     joint_names: Sequence[str],
     *,
     title: str = "",
-    compare: tuple[np.ndarray, np.ndarray, str] | None = None,
+    compare: tuple[np.ndarray, np.ndarray, str] | Sequence[tuple] | None = None,
     marks: Sequence[tuple[float, str]] = (),
     supply: tuple[np.ndarray, str] | None = None,
+    total_label: str | None = None,
 ):
     """Cumulative E⁺ per joint (J) and their total against time (s); ``compare`` =
-    (t (s), cumulative total E⁺ (J), label) of another path (e.g. the shortest joint-space
-    path, docs/design.md §7c), drawn as a second total curve; ``supply`` = (cumulative
+    (t (s), cumulative total E⁺ (J), label) of another motion or path (e.g. the shortest
+    joint-space path, docs/design.md §7c), or a list of them, each drawn as another total
+    curve; ``total_label`` names what the per-joint curves are (e.g. "returned motion";
+    default "energy-optimal" when something is compared, else nothing), so that each total
+    says what it is; ``supply`` = (cumulative
     energy drawn from a shared bus (J), label), drawn as the total the run is priced by
     (docs/design.md §3i), beside the per-joint sum; ``marks`` = (time (s), label)
     pairs, each drawn as a vertical dashed line with its label written along it (e.g. the
-    times the arm re-planned)."""
+    times the arm re-planned). The totals' lines carry the ``gid`` ``"total"`` and
+    ``"compare:<k>"``."""
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 5) if marks else (8, 4))
+    if isinstance(compare, tuple) and len(compare) == 3 and isinstance(compare[2], str):
+        compare = [compare]  # one (t, e, label)
+    compare = list(compare or ())
+    below = bool(marks or compare)  # marks run down from the top; compared totals' names
+    fig, ax = plt.subplots(figsize=(8, 5) if below else (8, 4))  # are long: legend below
     for k, name in enumerate(joint_names):
         ax.plot(t, energy_t[:, k], label=f"{name}: {energy_t[-1, k]:.4g} J")
-    total = "total (energy-optimal)" if compare is not None else "total"
+    what = total_label if total_label is not None else ("energy-optimal" if compare else "")
+    total = f"total ({what})" if what else "total"
     if supply is not None:
         drawn, name = supply
         ax.plot(t, energy_t.sum(axis=1), "--", color="0.5",
                 label=f"sum of per-joint supplies: {energy_t[-1].sum():.4g} J")
-        ax.plot(t, drawn, "k-", lw=2, label=f"{total}, {name}: {drawn[-1]:.4g} J")
+        ax.plot(t, drawn, "k-", lw=2, label=f"{total}, {name}: {drawn[-1]:.4g} J", gid="total")
     else:
-        ax.plot(t, energy_t.sum(axis=1), "k--", label=f"{total}: {energy_t[-1].sum():.4g} J")
-    if compare is not None:
-        tc, ec, name = compare
+        ax.plot(t, energy_t.sum(axis=1), "k--", label=f"{total}: {energy_t[-1].sum():.4g} J",
+                gid="total")
+    for k, (tc, ec, name) in enumerate(compare):
         ec = np.asarray(ec, float)
-        ax.plot(tc, ec, ":", color="#d62828", lw=2, label=f"total, {name}: {ec[-1]:.4g} J")
+        ls, color = COMPARE_STYLES[k % len(COMPARE_STYLES)]
+        ax.plot(tc, ec, ls=ls, color=color, lw=2, label=f"total, {name}: {ec[-1]:.4g} J",
+                gid=f"compare:{k}")
     for tm, text in marks:
         ax.axvline(float(tm), color=HIDDEN_COLOR, ls="--", lw=1.2, zorder=1.5, gid="mark")
         ax.annotate(text, (float(tm), 0.97), xycoords=("data", "axes fraction"),
@@ -610,8 +685,9 @@ def plot_cumulative_energy(
                           "alpha": 0.8})
     ax.set_xlabel("time (s)")
     ax.set_ylabel("energy drawn E⁺ (J)")
-    if marks:  # the labels run down from the top: the legend goes below the axes
-        ax.legend(fontsize="small", ncol=3, loc="upper center", bbox_to_anchor=(0.5, -0.15))
+    if below:  # below the axes, clear of the curves
+        ax.legend(fontsize="small", ncol=3 if marks else 2, loc="upper center",
+                  bbox_to_anchor=(0.5, -0.15))
     else:
         ax.legend(fontsize="small", ncol=2)
     ax.set_title(title or "cumulative electrical energy per joint")
@@ -621,6 +697,16 @@ def plot_cumulative_energy(
 
 #: Colours of the candidates' fronts in ``energy_duration.png`` (cycled).
 FRONT_COLORS = ("#1d3557", "#e76f51", "#2a9d8f", "#8338ec", "#f4a261", "#6c757d")
+#: ``energy_duration.png``: marker size (points) of the simulated durations, in the plot and
+#: in the legend alike, and the draw order: the screens' lines, the stop-and-go squares, the
+#: returned motion's hollow star, then the simulated dots on top (a dot under the star, or
+#: under another candidate's line, stays visible).
+SIMULATED_SIZE = 8.0
+Z_SCREEN, Z_STOP, Z_RETURNED, Z_SIMULATED = 2.0, 4.0, 5.0, 6.0
+#: ``energy_duration.png``: the legend's words for a screen line.
+SCREEN_LABEL = ("non-stop, perfect-tracking screen (an estimate: E⁺ of exact tracking, "
+                "not simulated)")
+SIMULATED_LABEL = "non-stop, simulated (RK4, §3)"
 
 
 def plot_energy_duration(
@@ -635,8 +721,10 @@ def plot_energy_duration(
     candidate (one colour) its non-stop front — the perfect-tracking screen (a line, no
     simulation) from its fastest feasible duration to the longest allowed, and the
     durations simulated (dots) — and its stop-and-go motion (a square, the roadmap
-    timing); the motion returned is a hollow star over its point, ``max_duration`` a dashed
-    line. Lines and markers carry a ``gid``: ``screen:NAME``, ``simulated:NAME``,
+    timing); the motion returned is a hollow star over its point (the simulated dots are
+    drawn above it, :data:`SIMULATED_SIZE`, :data:`Z_SIMULATED`), ``max_duration`` a
+    dashed line; the legend explains the screen as an estimate. Lines and markers carry a
+    ``gid``: ``screen:NAME``, ``simulated:NAME``,
     ``stop:NAME``, ``returned``, ``max_duration``."""
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
@@ -651,17 +739,17 @@ def plot_energy_duration(
         if non is not None and non["screen"]:
             T, E = np.array(non["screen"], dtype=float).T
             ax.plot(T, E, "-", color=color, lw=1.6, alpha=0.8, gid=f"screen:{name}",
-                    zorder=2)
+                    zorder=Z_SCREEN)
             shown = True
         if non is not None and non["simulated"]:
             T, E = np.array(non["simulated"], dtype=float).T
-            ax.plot(T, E, "o", color=color, ms=7, mec="white", mew=1.0,
-                    gid=f"simulated:{name}", zorder=4)
+            ax.plot(T, E, "o", color=color, ms=SIMULATED_SIZE, mec="white", mew=1.0,
+                    gid=f"simulated:{name}", zorder=Z_SIMULATED)
             shown = True
         stop = row.get("stop")
         if stop is not None and stop["feasible"]:
             ax.plot([stop["duration"]], [stop["total_energy"]], "s", color=color, ms=8,
-                    mec="white", mew=1.0, gid=f"stop:{name}", zorder=4)
+                    mec="white", mew=1.0, gid=f"stop:{name}", zorder=Z_STOP)
             shown = True
         if shown:
             handles.append(Line2D([], [], color=color, marker="o", lw=1.6,
@@ -672,13 +760,12 @@ def plot_energy_duration(
         handles.append(Line2D([], [], color="#6c757d", ls="--",
                               label=f"max_duration {max_duration:g} s"))
     ax.plot([returned["duration"]], [returned["total_energy"]], "*", ms=20, mfc="none",
-            mec="#111111", mew=1.8, gid="returned", zorder=5)
+            mec="#111111", mew=1.8, gid="returned", zorder=Z_RETURNED)
     handles += [
-        Line2D([], [], color="#444444", lw=1.6,
-               label="non-stop, perfect-tracking screen (E⁺ without simulation)"),
-        Line2D([], [], color="#444444", marker="o", ls="none", mec="white",
-               label="non-stop, simulated (RK4, §3)"),
-        Line2D([], [], color="#444444", marker="s", ls="none", mec="white",
+        Line2D([], [], color="#444444", lw=1.6, label=SCREEN_LABEL),
+        Line2D([], [], color="#444444", marker="o", ms=SIMULATED_SIZE, ls="none",
+               mec="white", label=SIMULATED_LABEL),
+        Line2D([], [], color="#444444", marker="s", ms=8, ls="none", mec="white",
                label="stop-and-go (roadmap timing)"),
         Line2D([], [], color="#111111", marker="*", ms=14, mfc="none", ls="none",
                label=f"returned: {returned['total_energy']:.4g} J, "

@@ -1,4 +1,4 @@
-"""Pick-and-place cycles (issue 33; docs/design.md §8b): one cycle time shared across legs.
+"""Pick-and-place cycles (issue 33; docs/design.md §8c): one cycle time shared across legs.
 Prints the numbers of one run.
 
 The built-in ``pick_place`` scenario: the Panda cell (table, wall, bin; ``sized`` motors),

@@ -18,16 +18,14 @@ is a *module-level* import in ``a`` of the ``mpd_pin`` module ``b``:
 A function-level import pointing *down* the layering is fine (a heavy module loaded when
 first needed); one pointing *up* (its target already reaches the importing module) is
 the usual way to dodge a circle rather than remove it. So the graph of module- and
-function-level imports together must be acyclic too, but for :data:`DODGING_ALLOWED`.
+function-level imports together must be acyclic too, with no exception.
 
 A private name is one starting with ``_`` that is not a dunder (``__version__``). No module
 may import a private name from another ``mpd_pin`` module, nor read one as an attribute
 (``roadmap._bus()``, ``table._name(k)``) when the name is defined only in other modules
 (a heuristic: defined = a ``def``/``class``/assigned name or a ``self.x =`` attribute in
 that module). Private *modules* are allowed (``from . import _impl``), since a module is
-not an attribute of another module's API. The exceptions still to remove are listed in
-:data:`PRIVATE_IMPORTS_ALLOWED` and :data:`PRIVATE_ATTRIBUTES_ALLOWED`, each in files
-owned by others (issue 35); a new one fails, a fixed one is only reported.
+not an attribute of another module's API. There are no exceptions.
 """
 
 from __future__ import annotations
@@ -43,35 +41,6 @@ import mpd_pin
 
 ROOT = Path(mpd_pin.__file__).resolve().parent
 PACKAGE = "mpd_pin"
-
-#: Function-level imports allowed to point up the layering: (importing module, target).
-DODGING_ALLOWED = {
-    # energy's timed dispatch; timed imports energy._simulate_nonstop (mpd_pin/motion/)
-    ("mpd_pin.motion.energy", "mpd_pin.motion.timed"),
-}
-
-#: Private names still imported across modules: (importing module, defining module, name).
-PRIVATE_IMPORTS_ALLOWED = {
-    ("mpd_pin.dynamics.cost", "mpd_pin.dynamics.simulate", "_check_batch"),
-    ("mpd_pin.dynamics.simulate", "mpd_pin.dynamics.tracking", "_pool"),
-    ("mpd_pin.motion.energy", "mpd_pin.dynamics.tracking", "_pool"),
-    ("mpd_pin.motion.optimize", "mpd_pin.motion.energy", "_fastest"),
-    ("mpd_pin.motion.optimize", "mpd_pin.motion.energy", "_simulate_nonstop"),
-    ("mpd_pin.motion.optimize", "mpd_pin.motion.energy", "_snap"),
-    ("mpd_pin.motion.relax", "mpd_pin.motion.shortcut", "_edge_costs"),
-    ("mpd_pin.motion.series", "mpd_pin.motion.energy", "_simulate_nonstop"),
-    ("mpd_pin.motion.series", "mpd_pin.dynamics.simulate", "_integrate_batch"),
-    ("mpd_pin.motion.shortcut", "mpd_pin.dynamics.simulate", "_feedforward_batch"),
-    ("mpd_pin.motion.shortcut", "mpd_pin.motion.energy", "_outcomes"),
-    ("mpd_pin.motion.timed", "mpd_pin.motion.energy", "_simulate_nonstop"),
-}
-
-#: Private attributes still read across modules: (reading module, attribute).
-PRIVATE_ATTRIBUTES_ALLOWED = {
-    # CostView._refocus carries Planner._stats_mark over (mpd_pin/search/base.py)
-    ("mpd_pin.planning.lazy", "_stats_mark"),
-}
-
 
 @dataclass(frozen=True)
 class Import:
@@ -171,12 +140,11 @@ def import_graph(imports: list[Import] | None = None) -> nx.DiGraph:
 
 
 def full_graph(imports: list[Import] | None = None) -> nx.DiGraph:
-    """Module- and function-level imports together, less :data:`DODGING_ALLOWED`."""
+    """Module- and function-level imports together."""
     imports = all_imports() if imports is None else imports
     graph = import_graph(imports)
     for imp in imports:
-        if (imp.function_level and imp.target != imp.source
-                and (imp.source, imp.target) not in DODGING_ALLOWED):
+        if imp.function_level and imp.target != imp.source:
             graph.add_edge(imp.source, imp.target)
     return graph
 
@@ -245,38 +213,28 @@ def test_no_import_cycles():
 
 def test_no_function_level_import_closes_a_cycle():
     """Nor do module- and function-level imports together (a function-level import may
-    load a heavy module late, but not dodge a circle), but for :data:`DODGING_ALLOWED`."""
+    load a heavy module late, but not dodge a circle)."""
     cycles = _cycles(full_graph())
     assert not cycles, _show(cycles)
 
 
-def test_no_private_names_imported_across_modules(capsys):
+def test_no_private_names_imported_across_modules():
     found = {(i.source, i.target, i.name): i.line for i in all_imports()
              if i.name is not None and _is_private(i.name) and i.target != i.source}
-    bad = sorted(f"{s}:{line} imports {t}.{n}" for (s, t, n), line in found.items()
-                 if (s, t, n) not in PRIVATE_IMPORTS_ALLOWED)
+    bad = sorted(f"{s}:{line} imports {t}.{n}" for (s, t, n), line in found.items())
     assert not bad, "\n".join(bad)
-    fixed = sorted(PRIVATE_IMPORTS_ALLOWED - set(found))
-    if fixed:
-        with capsys.disabled():
-            print("\nremove from PRIVATE_IMPORTS_ALLOWED (fixed):", fixed)
 
 
-def test_no_private_attributes_across_modules(capsys):
+def test_no_private_attributes_across_modules():
     uses = private_attribute_uses()
     bad = sorted({f"{m}:{line} uses .{attr} (defined in {', '.join(owners)})"
-                  for m, line, attr, owners in uses
-                  if (m, attr) not in PRIVATE_ATTRIBUTES_ALLOWED})
+                  for m, line, attr, owners in uses})
     assert not bad, "\n".join(bad)
-    fixed = sorted(PRIVATE_ATTRIBUTES_ALLOWED - {(m, a) for m, _, a, _ in uses})
-    if fixed:
-        with capsys.disabled():
-            print("\nremove from PRIVATE_ATTRIBUTES_ALLOWED (fixed):", fixed)
 
 
 def test_function_level_imports_are_listed(capsys):
     """Function-level imports pointing down are fine (lazy loading of heavy modules); run
-    ``pytest -s`` to see the number and the up-pointing (allowed) ones."""
+    ``pytest -s`` to see the number and any pointing up (which the cycle test fails on)."""
     graph = import_graph()
     rows = []
     for imp in all_imports():

@@ -20,7 +20,7 @@ from scipy.interpolate import make_interp_spline
 import mpd_pin as mp
 from mpd_pin.app.kinds import load_scenario
 from mpd_pin.collision import CollisionChecker
-from mpd_pin.motion.energy import _simulate_nonstop, trajectory_energy
+from mpd_pin.motion.energy import simulate_nonstop, trajectory_energy
 from mpd_pin.motion.refine import OPTIMIZED, MotionOptions, refine_candidates
 from mpd_pin.motion.series import motion_series
 from mpd_pin.motion.shortcut import _dp, densify, shortcut_path
@@ -97,7 +97,7 @@ def test_two_point_spline_is_the_edge_quintic(quick):
     scn, drive, _ = quick
     q0, q1 = scn.start, scn.start + np.array([0.4, -0.3, 0.5])
     vs = via_spline(np.array([q0, q1]), [0.0, 1.0])
-    E, *_ = _simulate_nonstop(drive, vs, np.array([1.5]), 5e-3)
+    E, *_ = simulate_nonstop(drive, vs, np.array([1.5]), 5e-3)
     ref = mp.edge_energies(drive, q0, q1, 1.5, 5e-3)
     np.testing.assert_allclose(E, ref, rtol=1e-9)
 
@@ -202,12 +202,12 @@ def test_nonstop_energy_matches_independent_sympy_rk4(ff):
     W = np.array([[0.3, 0.2, -0.1], [0.9, -0.3, 0.4], [1.2, 0.1, 0.2], [1.0, -0.4, 0.5]])
     vs = via_spline(W, unit_knots(W, arm.model.velocityLimit))
     T = 2.4
-    E, _, err, _, _, _ = _simulate_nonstop(drive, vs, np.array([T, 3.0]), 5e-3)
+    E, _, err, _, _, _ = simulate_nonstop(drive, vs, np.array([T, 3.0]), 5e-3)
     ref = _sympy_nonstop(drive, W, vs.knots * T / vs.unit_duration, 5e-3, ff=ff)
     np.testing.assert_allclose(E[0], ref, rtol=1e-6)
     assert np.all(np.isfinite(err[0]))
     # a second row in the same batch (longer) does not disturb the first
-    E1, *_ = _simulate_nonstop(drive, vs, np.array([T]), 5e-3)
+    E1, *_ = simulate_nonstop(drive, vs, np.array([T]), 5e-3)
     np.testing.assert_array_equal(E1[0], E[0])
 
 

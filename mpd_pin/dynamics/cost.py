@@ -23,7 +23,7 @@ from .remote import (
     plan_chunks,
     run_chunks,
 )
-from .simulate import EdgeOutcomes, _check_batch
+from .simulate import EdgeOutcomes, check_batch
 
 __all__ = ["EnergyCost", "Reuse"]
 
@@ -105,7 +105,7 @@ class EnergyCost:
         ``on_chunk(rows, outcomes)`` is called as each chunk finishes (before
         ``progress(done edges)``), e.g. to save it for a resumed build.
         """
-        Q0, Q1 = _check_batch(self.drive, Q0, Q1)
+        Q0, Q1 = check_batch(self.drive, Q0, Q1)
         Q1 = self.drive.arm.edge_target(Q0, Q1)  # the shorter way round (§1d)
         K, nq = Q0.shape
         T = np.broadcast_to(np.asarray(durations, dtype=float), (K,)).copy()

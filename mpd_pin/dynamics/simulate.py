@@ -36,7 +36,7 @@ import pinocchio as pin
 from .current import current_step
 from .motor import Drive
 from .supply import PER_JOINT, Supply, supply_energy
-from .tracking import _pool, feedforward_tables, integrate_tables
+from .tracking import feedforward_tables, integrate_tables, model_pool
 
 __all__ = [
     "EdgeSimulation",
@@ -134,7 +134,7 @@ def _per_edge(a: np.ndarray) -> np.ndarray:
     return a[:, None, None] if a.ndim == 1 else a[..., None]
 
 
-def _feedforward_batch(drive: Drive, Q0: np.ndarray, DQ: np.ndarray, tau: np.ndarray, T):
+def feedforward_batch(drive: Drive, Q0: np.ndarray, DQ: np.ndarray, tau: np.ndarray, T):
     """V_ff and i_ff, shape (nt, K, nq), for K edges at the normalised times ``tau``
     ((nt,) shared, or (nt, K) with ``T`` (s) one per edge)."""
     s, sd, sdd, sddd = (_per_edge(a) for a in quintic(tau, T))
@@ -310,7 +310,7 @@ def simulate_edge(drive: Drive, q0, q1, duration: float = 1.0, dt: float = 5e-3)
 
 
 # ------------------------------------------------------------------------ many edges
-def _check_batch(drive: Drive, Q0, Q1) -> tuple[np.ndarray, np.ndarray]:
+def check_batch(drive: Drive, Q0, Q1) -> tuple[np.ndarray, np.ndarray]:
     Q0 = np.asarray(Q0, dtype=float)
     Q1 = np.asarray(Q1, dtype=float)
     nq = drive.nq
@@ -337,7 +337,7 @@ def _reference_table(drive: Drive, Q0, DQ, half, T, s, sd, pool, threads: int):
     K, nq = Q0.shape
     kp, kd = drive.kp_vec, drive.kd_vec
     if drive.feedforward:
-        W, i_ff = _feedforward_batch(drive, Q0, DQ, half, T)  # W holds V_ff: (nt, K, nq)
+        W, i_ff = feedforward_batch(drive, Q0, DQ, half, T)  # W holds V_ff: (nt, K, nq)
         i0 = i_ff[0].copy()  # τ_ff(0) = G(q0): the holding current
         del i_ff
     else:
@@ -376,7 +376,7 @@ def integrate_batch(
     DQ = Q1 - Q0
     half = np.minimum(np.arange(2 * n_max + 1)[:, None] / (2 * N)[None, :], 1.0)  # (nt, K)
     s, sd, _, _ = (_per_edge(a) for a in quintic(half, T))
-    pool = _pool(drive, threads)
+    pool = model_pool(drive, threads)
     W, i0 = _reference_table(drive, Q0, DQ, half, T, s, sd, pool, threads)
     return integrate_tables(drive, Q0, Q1, W, i0, N, h, threads, pool, record=record)
 
@@ -428,7 +428,7 @@ def edge_outcomes(
     progress: Callable[[int], None] | None = None,
 ) -> EdgeOutcomes:
     """Simulate the K edges ``Q0[k] → Q1[k]`` together; see :func:`edge_energies`."""
-    Q0, Q1 = _check_batch(drive, Q0, Q1)
+    Q0, Q1 = check_batch(drive, Q0, Q1)
     K = Q0.shape[0]
     threads = int(threads or os.cpu_count() or 1)
     durations = (
@@ -537,9 +537,9 @@ def ideal_edge_energies(
     drive: Drive, Q0, Q1, duration: float = 1.0, dt: float = 5e-3
 ) -> np.ndarray:
     """Batched :func:`ideal_edge_energy`: (K, nq) E⁺ (J) with perfect tracking, no simulation."""
-    Q0, Q1 = _check_batch(drive, Q0, Q1)
+    Q0, Q1 = check_batch(drive, Q0, Q1)
     N = step_count(duration, dt)
     half = np.arange(2 * N + 1) / (2 * N)
-    Vff, iff = _feedforward_batch(drive, Q0, Q1 - Q0, half, float(duration))
+    Vff, iff = feedforward_batch(drive, Q0, Q1 - Q0, half, float(duration))
     Ep, _ = _simpson_energies(Vff, iff, float(duration) / N)
     return Ep

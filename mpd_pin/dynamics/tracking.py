@@ -16,7 +16,7 @@ quintic edges of :mod:`mpd_pin.dynamics.simulate` and the non-stop motions of
 
 A batch has a fixed cost (the lazy planner runs many small ones), kept low the way
 Pinocchio keeps its Data: what depends only on the drive is made once and kept for the
-drive (:func:`_cache`) — the ``ModelPool`` (:func:`_pool`), the batched-RNEA evaluators
+drive (:func:`_cache`) — the ``ModelPool`` (:func:`model_pool`), the batched-RNEA evaluators
 with their recorded plans (:func:`_rnea_evaluators`), the per-joint integrator constants
 (:func:`_step_constants`) — and the RK4 loop reuses buffers and views made before it, in
 fewer and cheaper numpy calls per step than it once needed (docs/design.md §3e, measured by
@@ -51,7 +51,7 @@ def _cache(drive: Drive) -> dict:
     return cache
 
 
-def _pool(drive: Drive, threads: int) -> pin.ModelPool:
+def model_pool(drive: Drive, threads: int) -> pin.ModelPool:
     """A ModelPool of the drive's (armature-carrying) model with ``threads`` Data, kept for
     the drive (rebuilt if ``drive.model`` is replaced)."""
     cache = _cache(drive)
@@ -220,7 +220,7 @@ def integrate_tables(
     N = np.asarray(N, dtype=np.int64)
     n_max = int(N.max())
     if pool is None:
-        pool = _pool(drive, threads)
+        pool = model_pool(drive, threads)
     aba_threads = max(1, int(threads)) if K >= ABA_PARALLEL_MIN else 1
     X = np.zeros((6, K, nq))  # row 5: B⁺ in column 0, the other columns stay 0
     X[0] = Q0

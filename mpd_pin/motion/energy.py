@@ -21,34 +21,31 @@ max(V_k i_k, 0) dt):
 from __future__ import annotations
 
 import math
-import os
-from dataclasses import dataclass, field, fields
+from dataclasses import fields
 from typing import Any
 
 import numpy as np
 
 from ..dynamics.motor import Drive
-from ..dynamics.simulate import EdgeOutcomes, edge_outcomes, step_count
-from ..dynamics.supply import (
-    PER_JOINT,
-    Supply,
-    energy_by_supply,
-    supply_energy,
-)
-from ..dynamics.tracking import _pool, feedforward_tables, integrate_tables
+from ..dynamics.simulate import EdgeOutcomes, edge_outcomes
+from ..dynamics.supply import supply_energy
 from .certify import certified_pieces
+from .nonstop import fastest_by_velocity, nonstop_tables, simulate_nonstop, snap_steps
+from .outcome import (
+    EXECUTIONS,
+    PRICINGS,
+    MotionEnergy,
+    check_waypoints,
+    limit_reasons,
+    waypoint_array,
+)
 from .screen import effort_bound, ideal_nonstop, joint_limits
 from .spline import ViaSpline, unit_knots, via_spline
+from .timed import timed_energy
 
-__all__ = ["EXECUTIONS", "MotionEnergy", "trajectory_energy", "check_waypoints",
-           "nonstop_tables"]
-
-#: Values of ``execution``; the first is the default.
-EXECUTIONS = ("auto", "stop", "nonstop")
-
-#: What :func:`trajectory_energy` prices: the executions, and "timed" (a trajectory with its
-#: own times, :mod:`mpd_pin.motion.timed`; not a planning option, so not in EXECUTIONS).
-PRICINGS = EXECUTIONS + ("timed",)
+__all__ = ["EXECUTIONS", "PRICINGS", "MotionEnergy", "trajectory_energy", "check_waypoints",
+           "nonstop_tables", "simulate_nonstop", "snap_steps", "fastest_by_velocity",
+           "waypoint_array", "limit_reasons", "cached_outcomes", "stretch_front"]
 
 #: Durations of a non-stop piece screened by perfect-tracking energy (the best is simulated;
 #: its neighbours, then all, only while none simulated is feasible).
@@ -58,137 +55,8 @@ SCREEN_GRID = 24
 STRETCH = 3.0
 
 
-@dataclass
-class MotionEnergy:
-    """What a path costs when the arm runs it (all energies E⁺, J; times s; angles rad).
-
-    execution: "stop" or "nonstop" (the one these numbers are for); waypoints (m+1, nq):
-    the via points as executed (continuous joints unwrapped); stops: via points where the
-    arm comes to rest between start and goal; pieces: (first, last) waypoint index of each
-    piece run in one go; piece_durations (s); energy_per_joint, total_energy (J);
-    duration (s); end_error: largest |q(T) − q_end| over pieces and joints (rad);
-    velocity_ratio: peak |q̇_ref| / velocity limit; effort_ratio: peak |n·Kt·i| / effort
-    limit; feasible: within both limits, arriving within the tolerance, and certified
-    collision-free when a checker was given (``reason`` says why not);
-    energy_by_execution: total E⁺ of each mode evaluated (None: infeasible);
-    duration_curve: (duration, E⁺) pairs the non-stop search simulated and found feasible
-    within its duration range (all it simulated when none was); ideal_curve: the
-    perfect-tracking (duration, E⁺) screen over that range; fastest: the shortest duration
-    of a feasible motion of this execution and geometry (s: stop-and-go, the roadmap
-    timing; non-stop, the fastest uniform stretch of each piece's spline that is simulated
-    within the effort, velocity and arrival limits, docs/design.md §9c; timed, its own);
-    velocity_fastest: the velocity limits' bound alone (s); longest: the end of the
-    duration range searched (s); duration_rule: how the duration was chosen.
-    """
-
-    execution: str
-    waypoints: np.ndarray
-    energy_per_joint: np.ndarray
-    total_energy: float
-    duration: float
-    end_error: float
-    velocity_ratio: float
-    effort_ratio: float
-    feasible: bool
-    stops: int
-    pieces: list[tuple[int, int]]
-    piece_durations: np.ndarray
-    reason: str = ""
-    energy_by_execution: dict[str, float | None] = field(default_factory=dict)
-    duration_curve: list[tuple[float, float]] = field(default_factory=list)
-    ideal_curve: list[tuple[float, float]] = field(default_factory=list)
-    alternative: MotionEnergy | None = None
-    #: the shortest duration of a feasible motion of this execution and geometry (s)
-    fastest: float = 0.0
-    #: the shortest duration the velocity limits alone allow (s; ≤ ``fastest``)
-    velocity_fastest: float = 0.0
-    #: the longest duration the search allowed (s; the end of the energy–time front)
-    longest: float = 0.0
-    #: how the duration was chosen (result.json ``motion.duration_rule``)
-    duration_rule: str = ""
-    #: a straight segment between the waypoints failed the certified check
-    colliding: bool = False
-    #: [B⁺, B⁻] of the shared bus over the motion (J, docs/design.md §3i)
-    bus_energy: np.ndarray = field(default_factory=lambda: np.zeros(2))
-    #: the supply ``total_energy`` is priced with (the drive's)
-    supply: Supply = PER_JOINT
-    #: an optimised motion's own curve (docs/design.md §9g): one non-stop piece that
-    #: follows this spline (at unit stretch its duration) instead of the spline through
-    #: ``waypoints``; None for every other motion
-    curve: ViaSpline | None = None
-    #: ``motion.optimization`` of the optimisation that made or kept this motion (§9g)
-    optimization: dict[str, Any] | None = None
-
-    @property
-    def fastest_duration(self) -> float:
-        """``fastest`` (s): the shortest duration of a feasible motion of this execution
-        and geometry — for non-stop pieces the fastest uniform stretch within the velocity,
-        effort and arrival limits, simulated (docs/design.md §9c)."""
-        return float(self.fastest)
-
-    def energy_by_supply(self) -> dict[str, float]:
-        """This motion's energy (J) per joint, on a shared bus, and on a shared bus with
-        this supply's regeneration (docs/design.md §3i)."""
-        return energy_by_supply(self.energy_per_joint, self.bus_energy,
-                                self.supply.regeneration)
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain JSON data (docs/design.md §9d)."""
-        return {
-            "execution": self.execution,
-            "feasible": bool(self.feasible),
-            "reason": self.reason,
-            "total_energy": float(self.total_energy),
-            "energy_per_joint": [float(x) for x in self.energy_per_joint],
-            "bus_energy": [float(x) for x in self.bus_energy],
-            "duration": float(self.duration),
-            "stops": int(self.stops),
-            "pieces": [[int(a), int(b)] for a, b in self.pieces],
-            "piece_durations": [float(x) for x in self.piece_durations],
-            "end_error": float(self.end_error),
-            "velocity_ratio": float(self.velocity_ratio),
-            "effort_ratio": float(self.effort_ratio),
-            "energy_by_execution": {k: (None if v is None else float(v))
-                                    for k, v in self.energy_by_execution.items()},
-            "waypoints": np.asarray(self.waypoints, float).tolist(),
-        }
-
-
-# ----------------------------------------------------------------------------- input
-def waypoint_array(drive: Drive, waypoints: Any) -> np.ndarray:
-    """``waypoints`` as an (m+1, nq) float array, continuous joints unwrapped (each point
-    the shorter way round from the one before, docs/design.md §1d), repeated points kept;
-    ValueError naming the row (from 1) for a wrong shape or NaN."""
-    W = np.asarray(waypoints, dtype=float)
-    nq = drive.nq
-    if W.ndim != 2 or W.shape[1] != nq:
-        raise ValueError(f"waypoints must have shape (m, {nq}) (one configuration per row), "
-                         f"got {W.shape}")
-    bad = np.flatnonzero(~np.isfinite(W).all(axis=1))
-    if bad.size:
-        raise ValueError(f"waypoint row {int(bad[0]) + 1} (counting from 1) contains NaN or "
-                         "infinity")
-    arm = drive.arm
-    if arm.continuous_joints:
-        W = W.copy()
-        for r in range(1, W.shape[0]):
-            W[r] = arm.edge_target(W[r - 1], W[r])
-    return W
-
-
-def check_waypoints(drive: Drive, waypoints: Any) -> np.ndarray:
-    """:func:`waypoint_array` with repeated points dropped; ValueError naming the row for a
-    wrong shape, NaN or fewer than 2 distinct points."""
-    W = waypoint_array(drive, waypoints)
-    keep = np.concatenate([[True], np.any(np.abs(np.diff(W, axis=0)) > 1e-12, axis=1)])
-    W = W[keep]
-    if W.shape[0] < 2:
-        raise ValueError("waypoints must hold at least two distinct configurations")
-    return W
-
-
 # ----------------------------------------------------------------------------- stop
-def _outcomes(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, dt: float,
+def cached_outcomes(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, dt: float,
               memo: dict | None) -> EdgeOutcomes:
     """:func:`edge_outcomes` of the edges, reusing rows kept in ``memo`` (keyed by the
     endpoints', duration's and step's bytes; rows never mix in a batch, so a row is the
@@ -207,31 +75,13 @@ def _outcomes(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray, dt: f
     return EdgeOutcomes(*(np.array([r[i] for r in rows]) for i in range(len(rows[0]))))
 
 
-def limit_reasons(options, effort: float, end_error: float, velocity: float, end: str,
-                  *, effort_on: bool | None = None) -> list[str]:
-    """Why a simulated motion is infeasible under ``options`` (a RoadmapOptions): peak
-    ``effort`` and ``velocity`` as multiples of their limits (each enforced when the
-    options ask), ``end_error`` (rad) from ``end`` (e.g. "a waypoint") beyond the arrival
-    tolerance. ``effort_on`` overrides ``options.effort_limits``."""
-    effort_on = bool(options.effort_limits) if effort_on is None else effort_on
-    reasons = []
-    if effort_on and effort > 1.0 + 1e-12:
-        reasons.append(f"effort limit exceeded ({effort:.3g}× the limit)")
-    if end_error > options.arrival_tolerance:
-        reasons.append(f"ends {end_error:.3g} rad from {end} (tolerance "
-                       f"{options.arrival_tolerance:g})")
-    if options.velocity_limits and velocity > 1.0 + 1e-9:
-        reasons.append(f"velocity limit exceeded ({velocity:.3g}×)")
-    return reasons
-
-
 def _stop(drive: Drive, W: np.ndarray, dt: float, options, checker, effort_on: bool,
           memo: dict | None = None) -> MotionEnergy:
     """Rest-to-rest quintic edges between consecutive waypoints, roadmap timing."""
     Q0, Q1 = W[:-1], W[1:]
     vlim, elim = joint_limits(drive)
     T, _ = options.timing(Q0, Q1, drive.arm.model.velocityLimit)
-    out = _outcomes(drive, Q0, Q1, T, dt, memo)
+    out = cached_outcomes(drive, Q0, Q1, T, dt, memo)
     energy = out.energy.sum(axis=0)
     bus = out.bus_energy.sum(axis=0)
     total = float(supply_energy(drive.supply, energy, bus))
@@ -253,52 +103,6 @@ def _stop(drive: Drive, W: np.ndarray, dt: float, options, checker, effort_on: b
                         velocity_fastest=float(T.sum()), longest=float(T.sum()),
                         duration_rule=STOP_RULE, colliding=colliding,
                         bus_energy=bus, supply=drive.supply)
-
-
-# ----------------------------------------------------------------------------- non-stop
-def nonstop_tables(drive: Drive, vs: ViaSpline, durations: np.ndarray, dt: float):
-    """The RK4 inputs of the spline ``vs`` stretched to each of ``durations`` (s, on the
-    dt grid): W (nt, K, nq) V, i0 (K, nq) A, steps N (K,), and the end (K, nq) rad."""
-    T = np.asarray(durations, dtype=float)
-    N = np.array([step_count(x, dt) for x in T.tolist()], dtype=np.int64)
-    n_max = int(N.max())
-    half = np.arange(2 * n_max + 1)[:, None] * (dt / 2.0) * np.ones((1, T.size))
-    Qr, Vr, Ar, Jr = vs.derivatives(half, T)
-    if drive.feedforward:
-        W, i_ff = feedforward_tables(drive, Qr, Vr, Ar, Jr)
-        i0 = i_ff[0].copy()
-    else:
-        W = np.zeros_like(Qr)
-        rest = np.zeros_like(Qr[:1])
-        _, i_hold = feedforward_tables(drive, Qr[:1], rest, rest, rest)  # G(q0)/(n Kt)
-        i0 = i_hold[0].copy()
-    W += drive.kp_vec * Qr
-    W += drive.kd_vec * Vr
-    end = np.broadcast_to(vs.waypoints[-1], (T.size, drive.nq)).copy()
-    return W, i0, N, end
-
-
-def _simulate_nonstop(drive: Drive, vs: ViaSpline, durations: np.ndarray, dt: float,
-                      record: bool = False):
-    """Outcomes (E⁺, E, end error, end velocity, peak torque; each (K, nq)) of the spline
-    stretched to each duration, in one batch; with ``record`` also the series."""
-    W, i0, N, end = nonstop_tables(drive, vs, durations, dt)
-    threads = int(os.cpu_count() or 1)
-    Q0 = np.broadcast_to(vs.waypoints[0], end.shape).copy()
-    return integrate_tables(drive, Q0, end, W, i0, N, dt, threads, _pool(drive, threads),
-                            record=record)
-
-
-def _snap(T: np.ndarray | float, dt: float) -> np.ndarray:
-    """Durations rounded up to whole RK4 steps (s)."""
-    return np.ceil(np.asarray(T, dtype=float) / dt - 1e-9) * dt
-
-
-def _fastest(vs: ViaSpline, vlim: np.ndarray, options, dt: float) -> float:
-    """The shortest duration (s) the velocity limits ``vlim`` (rad/s) allow the spline
-    ``vs``, on the dt grid and not below ``min_duration``."""
-    ratio = vs.peak_speed_ratio(vlim) * 1.002 if options.velocity_limits else 0.0
-    return float(_snap(max(ratio * vs.unit_duration, options.min_duration), dt))
 
 
 #: The fastest feasible stretch of a non-stop piece is found to this share of its duration
@@ -325,7 +129,7 @@ class _Piece:
         vlim, self.elim = joint_limits(drive)
         self.ratio = vs.peak_speed_ratio(vlim) * 1.002 if options.velocity_limits else 0.0
         #: the velocity limits' bound (s, on the dt grid, not below min_duration)
-        self.t_velocity = float(_snap(max(self.ratio * vs.unit_duration,
+        self.t_velocity = float(snap_steps(max(self.ratio * vs.unit_duration,
                                           options.min_duration), dt))
         #: the perfect-tracking effort bound (s, :func:`effort_bound`; 0 without limits)
         self.t_effort = effort_bound(drive, vs) if effort_on else 0.0
@@ -341,16 +145,16 @@ class _Piece:
         """The perfect-tracking lower bound (s): the larger of the velocity and effort
         bounds (the velocity bound where holding the arm exceeds an effort limit)."""
         te = self.t_effort if math.isfinite(self.t_effort) else 0.0
-        return float(_snap(max(self.t_velocity, te), self.dt))
+        return float(snap_steps(max(self.t_velocity, te), self.dt))
 
     def run(self, Ts) -> None:
         """Simulate the durations ``Ts`` (s, snapped to the dt grid) not simulated yet."""
-        Ts = np.unique(_snap(Ts, self.dt))
+        Ts = np.unique(snap_steps(Ts, self.dt))
         Ts = Ts[[float(x) not in self.rows for x in Ts]]
         if not Ts.size:
             return
         drive, options = self.drive, self.options
-        E, _, err, _, peak, B = _simulate_nonstop(drive, self.vs, Ts, self.dt)
+        E, _, err, _, peak, B = simulate_nonstop(drive, self.vs, Ts, self.dt)
         for k, T in enumerate(Ts.tolist()):
             eff = float(np.max(peak[k] / self.elim))
             e = float(np.max(np.abs(err[k])))
@@ -417,7 +221,7 @@ class _Piece:
                 else:
                     T = min(max(T, lo + tol / 2), hi - tol / 2)
                     props = [T - tol / 2, T + tol / 2]
-            props = np.maximum(_snap(props, self.dt), t_v)
+            props = np.maximum(snap_steps(props, self.dt), t_v)
             props = [float(x) for x in np.unique(props) if float(x) not in self.rows]
             if not props:
                 ok = sorted(T for T, r in self.rows.items() if r["ok"])
@@ -425,7 +229,7 @@ class _Piece:
                          if not r["ok"] and ok and T < ok[0]]
                 if not ok or not below:
                     break
-                mid = float(_snap(0.5 * (max(below) + ok[0]), self.dt))
+                mid = float(snap_steps(0.5 * (max(below) + ok[0]), self.dt))
                 if mid in self.rows:
                     break
                 props = [mid]
@@ -456,7 +260,7 @@ class _Piece:
         if t_hi < t_lo - 1e-12:
             self.hi, self.ideal = t_lo, []
             return t_lo, None
-        grid = _snap(np.geomspace(t_lo, t_hi, SCREEN_GRID) if t_hi > t_lo
+        grid = snap_steps(np.geomspace(t_lo, t_hi, SCREEN_GRID) if t_hi > t_lo
                      else np.array([t_lo]), dt)
         # with the durations simulated already (the fastest stretch's search), so that the
         # screen has a value at every simulated point of the range
@@ -637,8 +441,6 @@ def trajectory_energy(
     if max_duration is not None and not (math.isfinite(max_duration) and max_duration > 0):
         raise ValueError(f"max_duration must be a number > 0 (s), got {max_duration!r}")
     if execution == "timed":
-        from .timed import timed_energy
-
         return timed_energy(drive, waypoints, times, dt=dt, options=options, checker=checker,
                             max_duration=max_duration)
     W = check_waypoints(drive, waypoints)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .energy import MotionEnergy
+from .outcome import MotionEnergy
 
 __all__ = ["front_record", "energy_duration_record"]
 

@@ -44,14 +44,8 @@ from ..collision.distance import PairDistances
 from ..dynamics.motor import Drive
 from ..dynamics.supply import supply_energy
 from .certify import first_failure
-from .energy import (
-    MotionEnergy,
-    _fastest,
-    _simulate_nonstop,
-    _snap,
-    check_waypoints,
-    limit_reasons,
-)
+from .nonstop import fastest_by_velocity, simulate_nonstop, snap_steps
+from .outcome import MotionEnergy, check_waypoints, limit_reasons
 from .problem import OptimizeSettings, Problem, fit_curve, spline_curve
 from .screen import joint_limits
 from .spline import ViaSpline, unit_knots, via_spline
@@ -172,7 +166,7 @@ def optimize_curve(
     settings = settings or OptimizeSettings()
     w0, c0 = time.perf_counter(), time.process_time()
     dt = float(options.dt)
-    T = float(_snap(duration, dt))
+    T = float(snap_steps(duration, dt))
     q0, q1 = seed.waypoints[0], seed.waypoints[-1]
     if seed.optimised and not settings.control_points:  # a restart: its own polygon
         n_c = int(seed.spline.c.shape[0])
@@ -299,7 +293,7 @@ def _sampled_failure(checker: Any, curve: ViaSpline, samples: int = 400) -> floa
 def _price(drive: Drive, curve: ViaSpline, T: float, options) -> MotionEnergy:
     """Simulate the optimised curve at T (RK4, §3) and check it as a non-stop piece."""
     vlim, elim = joint_limits(drive)
-    E, _, err, _, peak, B = _simulate_nonstop(drive, curve, np.array([T]), float(options.dt))
+    E, _, err, _, peak, B = simulate_nonstop(drive, curve, np.array([T]), float(options.dt))
     vel = curve.peak_speed_ratio(vlim) * curve.unit_duration / T
     eff = float(np.max(peak[0] / elim))
     e = float(np.max(np.abs(err[0])))
@@ -356,8 +350,8 @@ def optimize_motion(
                          f"{checker.describe_collision(W[k])}")
     vlim, _ = joint_limits(drive)
     seed = via_spline(W, unit_knots(W, vlim))
-    t_min = _fastest(seed, vlim, options, float(options.dt))
-    T = float(_snap(T, float(options.dt)))
+    t_min = fastest_by_velocity(seed, vlim, options, float(options.dt))
+    T = float(snap_steps(T, float(options.dt)))
     if T < t_min - 1e-9:
         raise ValueError(f"duration {duration:g} s is below the fastest the velocity limits "
                          f"allow this path, {t_min:.3f} s")

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..dynamics.motor import Drive
 from ..dynamics.supply import PER_JOINT, Supply, supply_energy
-from .shortcut import _edge_costs, ideal_costs
+from .shortcut import ideal_costs, segment_costs
 
 __all__ = ["RelaxResult", "relax_path"]
 
@@ -85,7 +85,7 @@ def relax_path(
     finite = np.isfinite(lo) & np.isfinite(hi)
     span = np.where(finite, hi - lo, 2 * np.pi)
     lo_c, hi_c = np.where(finite, lo, -np.inf), np.where(finite, hi, np.inf)
-    seg, ok, simulated, bus, cost = _edge_costs(drive, W, np.arange(m), np.arange(1, m + 1),
+    seg, ok, simulated, bus, cost = segment_costs(drive, W, np.arange(m), np.arange(1, m + 1),
                                                 options, dt, effort_on, memo)
     initial = float(cost.sum())
     moves = 0
@@ -144,7 +144,7 @@ def relax_path(
         if not moved:
             step /= 2
     if moves:  # the relaxed path, simulated in one batch: kept if its E⁺ really fell
-        E, ok, fresh, B, C = _edge_costs(drive, W, np.arange(m), np.arange(1, m + 1), options,
+        E, ok, fresh, B, C = segment_costs(drive, W, np.arange(m), np.arange(1, m + 1), options,
                                          dt, effort_on, memo)
         simulated += fresh
         if ok.all() and C.sum() < cost.sum() - 1e-9 * abs(cost.sum()):

@@ -17,7 +17,8 @@ import numpy as np
 
 from ..dynamics.motor import Drive
 from ..dynamics.simulate import step_count
-from .energy import MotionEnergy, _simulate_nonstop
+from .nonstop import simulate_nonstop
+from .outcome import MotionEnergy
 from .spline import unit_knots, via_spline
 from .timed import knot_times, timed_spline, timed_step
 
@@ -50,7 +51,7 @@ def _pieces(drive: Drive, m: MotionEnergy, dt: float):
         return
     if m.curve is not None:  # an optimised motion follows its own spline (§9g)
         T = float(m.piece_durations[0])
-        _, rec = _simulate_nonstop(drive, m.curve, np.array([T]), dt, record=True)
+        _, rec = simulate_nonstop(drive, m.curve, np.array([T]), dt, record=True)
         t = np.arange(rec.q.shape[0]) * dt
         yield (t, rec.q[:, 0], rec.v[:, 0], rec.i[:, 0], rec.V[:, 0], rec.energy_t[:, 0],
                rec.bus_energy_t[:, 0], m.curve.knots * (T / m.curve.unit_duration))
@@ -60,7 +61,7 @@ def _pieces(drive: Drive, m: MotionEnergy, dt: float):
         T = float(knots[-1])
         h = timed_step(T, dt)
         vs = timed_spline(W, knots)
-        _, rec = _simulate_nonstop(drive, vs, np.array([T]), h, record=True)
+        _, rec = simulate_nonstop(drive, vs, np.array([T]), h, record=True)
         t = np.arange(rec.q.shape[0]) * h
         yield (t, rec.q[:, 0], rec.v[:, 0], rec.i[:, 0], rec.V[:, 0], rec.energy_t[:, 0],
                rec.bus_energy_t[:, 0], knots)
@@ -69,7 +70,7 @@ def _pieces(drive: Drive, m: MotionEnergy, dt: float):
     vlim = np.where(np.isfinite(vlim) & (vlim > 0), vlim, 1.0)
     for (a, b), T in zip(m.pieces, m.piece_durations, strict=True):
         vs = via_spline(W[a : b + 1], unit_knots(W[a : b + 1], vlim))
-        _, rec = _simulate_nonstop(drive, vs, np.array([float(T)]), dt, record=True)
+        _, rec = simulate_nonstop(drive, vs, np.array([float(T)]), dt, record=True)
         n = rec.q.shape[0]
         t = np.arange(n) * dt
         yield (t, rec.q[:, 0], rec.v[:, 0], rec.i[:, 0], rec.V[:, 0], rec.energy_t[:, 0],

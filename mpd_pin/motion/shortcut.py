@@ -69,7 +69,7 @@ def densify(W: np.ndarray, interior: int) -> tuple[np.ndarray, np.ndarray]:
     return np.vstack([pts, W[-1:]]), np.append(seg, m)
 
 
-def _edge_costs(drive: Drive, P: np.ndarray, I: np.ndarray, J: np.ndarray, options, dt: float,
+def segment_costs(drive: Drive, P: np.ndarray, I: np.ndarray, J: np.ndarray, options, dt: float,
                 effort_on: bool, memo: dict | None = None):
     """E⁺ per joint (K, nq) of the straight edges P[I] → P[J] timed by the roadmap rule,
     whether each is feasible by the roadmap's rules (docs/design.md §4e), how many were
@@ -77,13 +77,13 @@ def _edge_costs(drive: Drive, P: np.ndarray, I: np.ndarray, J: np.ndarray, optio
     :func:`~mpd_pin.motion.energy.trajectory_energy`), their bus energies (K, 2) and
     their supply energies (K,) J (the cost, docs/design.md §3i)."""
     from ..planning.roadmap import feasibility
-    from .energy import _outcomes
+    from .energy import cached_outcomes
 
     Q0, Q1 = P[I], P[J]
     memo = {} if memo is None else memo
     T, _ = options.timing(Q0, Q1, drive.arm.model.velocityLimit)
     before = sum(1 for k in memo if k[0] == "outcome")
-    out = _outcomes(drive, Q0, Q1, T, dt, memo)
+    out = cached_outcomes(drive, Q0, Q1, T, dt, memo)
     fresh = sum(1 for k in memo if k[0] == "outcome") - before
     over, missed = feasibility(out, options, drive.arm.model)
     ok = ~missed & (~over if effort_on else True)
@@ -131,7 +131,7 @@ def ideal_costs(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray,
     ``samples`` + 1 points of normalised time — no simulation. A screen: measured
     within 0.3 % of the simulated E⁺ (rank correlation 1.0) on 60 random edges each of the
     Panda, UR5 (``sized``) and quickstart; the choices it makes are simulated after."""
-    from ..dynamics.simulate import _feedforward_batch
+    from ..dynamics.simulate import feedforward_batch
 
     K = Q0.shape[0]
     if K == 0:
@@ -142,7 +142,7 @@ def ideal_costs(drive: Drive, Q0: np.ndarray, Q1: np.ndarray, T: np.ndarray,
     step = max(1, (1 << 18) // (tau.size * Q0.shape[1]))  # bound the tables' memory
     for a in range(0, K, step):
         b = min(K, a + step)
-        Vff, iff = _feedforward_batch(drive, Q0[a:b], Q1[a:b] - Q0[a:b], tau2[:, a:b],
+        Vff, iff = feedforward_batch(drive, Q0[a:b], Q1[a:b] - Q0[a:b], tau2[:, a:b],
                                       np.asarray(T[a:b], float))
         P = supply_power(drive.supply, Vff * iff)  # (nt, k)
         w = np.ones(tau.size)
@@ -181,7 +181,7 @@ def lazy_sequence(drive: Drive, P: np.ndarray, I: np.ndarray, J: np.ndarray, kno
                 continue
         uns = np.array([x for x in e.tolist() if x not in done], dtype=np.int64)
         if uns.size:
-            E, ok, fresh, B, C = _edge_costs(drive, P, I[uns], J[uns], options, dt, effort_on,
+            E, ok, fresh, B, C = segment_costs(drive, P, I[uns], J[uns], options, dt, effort_on,
                                              memo)
             simulated += fresh
             for r, x in enumerate(uns.tolist()):
@@ -228,7 +228,7 @@ def shortcut_path(
     W = np.asarray(waypoints, dtype=float)
     m = W.shape[0] - 1
     max_edges = m  # never more stops than the path had
-    E0, ok0, simulated, B0, C0 = _edge_costs(drive, W, np.arange(m), np.arange(1, m + 1),
+    E0, ok0, simulated, B0, C0 = segment_costs(drive, W, np.arange(m), np.arange(1, m + 1),
                                              options, dt, effort_on, memo)
     initial = float(np.where(ok0, C0, np.inf).sum())
 

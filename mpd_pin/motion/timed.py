@@ -33,7 +33,8 @@ from ..dynamics.motor import Drive
 from ..dynamics.simulate import step_count
 from ..dynamics.supply import supply_energy
 from .certify import first_failure
-from .energy import MotionEnergy, _simulate_nonstop, limit_reasons, waypoint_array
+from .nonstop import simulate_nonstop
+from .outcome import MotionEnergy, limit_reasons, waypoint_array
 from .screen import joint_limits
 from .spline import ViaSpline, via_spline
 
@@ -119,7 +120,7 @@ def timed_energy(drive: Drive, waypoints: Any, times: Any, *, dt: float, options
     T = float(t[-1])
     vs = timed_spline(W, t)
     h = timed_step(T, dt)
-    E, _, end_err, _, peak, B = _simulate_nonstop(drive, vs, np.array([T]), h)
+    E, _, end_err, _, peak, B = simulate_nonstop(drive, vs, np.array([T]), h)
     vlim, elim = joint_limits(drive)
     m = W.shape[0] - 1
     samples = max(VELOCITY_SAMPLES, SAMPLES_PER_SEGMENT * m + 1)

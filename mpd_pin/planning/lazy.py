@@ -440,7 +440,7 @@ class CostView:
         so far stays in its statistics."""
         new = self.planner(type(old), old.start, old.goal)
         new.stats = old.stats.copy()
-        new._stats_mark = old._stats_mark.copy()
+        new.stats_mark = old.stats_mark.copy()
         self.planner_used = new
         return new
 

@@ -127,7 +127,7 @@ class Planner(ABC):
         self.heuristic = heuristic
         self.stats = SearchStats()
         self.last_stats = SearchStats()
-        self._stats_mark = SearchStats()
+        self.stats_mark = SearchStats()
 
     @property
     def start(self) -> int:
@@ -165,8 +165,8 @@ class Planner(ABC):
         st.queue_operations += queue_operations
 
     def _close_plan_stats(self) -> None:
-        self.last_stats = self.stats - self._stats_mark
-        self._stats_mark = self.stats.copy()
+        self.last_stats = self.stats - self.stats_mark
+        self.stats_mark = self.stats.copy()
 
     def _path_from_nodes(self, nodes: list[int]) -> Path:
         """Build a Path, summing edge costs left to right; checks each edge is finite."""

@@ -57,6 +57,7 @@ _LAZY = {
     "Scenario": "app.scenario",
     "plan": "app.api",
     "EnergyPlanner": "app.planner",
+    "PlannerOptions": "app.planner_options",
     "Plan": "app.planned",
     "Leg": "app.legs",
     "Cycle": "app.cycle",

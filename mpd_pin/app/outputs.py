@@ -452,9 +452,21 @@ def _roadmap_record(
     }
 
 
-def timing_record(roadmap: Roadmap, clock: PhaseClock) -> dict[str, Any]:
-    # Wall-clock seconds per phase; the roadmap's own sub-phases (wall-clock) beside them.
-    wall = {f"roadmap_{k}": v for k, v in roadmap.timings.items()}
+def roadmap_timings(setup: Setup) -> dict[str, float]:
+    """The roadmap's own sub-phases (wall-clock s): its build's timings and, for a lazy
+    run, the seconds the searches spent simulating edges and bounding them (docs/design.md
+    §4g). A new dict; neither the setup nor its roadmap is changed."""
+    timings = dict(setup.roadmap.timings)
+    if setup.lazy is not None:  # lazy: simulated during the searches
+        timings["edge_energies"] = setup.lazy.count.simulate_seconds
+        timings["edge_bounds"] = setup.lazy.bound_seconds
+    return timings
+
+
+def timing_record(timings: dict[str, float], clock: PhaseClock) -> dict[str, Any]:
+    """result.json's seconds per phase (wall-clock), with the roadmap's sub-phases
+    ``timings`` (:func:`roadmap_timings`) beside them, and the CPU seconds per phase."""
+    wall = {f"roadmap_{k}": v for k, v in timings.items()}
     wall["roadmap_total"] = clock.wall["roadmap"]
     wall.update({k: v for k, v in clock.wall.items() if k != "roadmap"})
     return {
@@ -533,10 +545,7 @@ def result_record(
         record["verification"] = check.to_dict()
     if replay is not None:
         record["replay"] = replay
-    if setup.lazy is not None:  # lazy: simulated during the searches (docs/design.md §4g)
-        setup.roadmap.timings["edge_energies"] = setup.lazy.count.simulate_seconds
-        setup.roadmap.timings["edge_bounds"] = setup.lazy.bound_seconds
-    record.update(timing_record(setup.roadmap, clock))
+    record.update(timing_record(roadmap_timings(setup), clock))
     return record
 
 

@@ -24,6 +24,7 @@ from .motion_step import RunMotion, path_supply_energy
 from .outputs import (
     make_figures,
     result_record,
+    roadmap_timings,
     timing_record,
     write_plots,
     write_replay_html,
@@ -242,6 +243,6 @@ class Plan:
                                                      p.moved, p.shortest, motion=p.motion)
         clock.wall["total"] = total + time.perf_counter() - w0
         clock.cpu["total"] = cpu_total + time.process_time() - c0
-        record.update(timing_record(p.setup.roadmap, clock))
+        record.update(timing_record(roadmap_timings(p.setup), clock))
         self._saved = write_result(out_dir, record)
         return self._saved

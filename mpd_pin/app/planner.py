@@ -26,9 +26,8 @@ import numpy as np
 from ..dynamics.motor import Drive
 from ..dynamics.payload import Payload
 from ..errors import NoMotionWithinDuration
-from ..motion.refine import MotionOptions
-from ..planning.roadmap import COLLISIONS, RoadmapOptions, npz_path
-from ..search.registry import DEFAULT_PLANNER, PLANNERS
+from ..planning.roadmap import COLLISIONS, npz_path
+from ..search.registry import PLANNERS
 from ..world import World
 from .config import ConfigError
 from .cycle import Cycle, plan_cycle
@@ -37,6 +36,7 @@ from .outputs import add_motion_comparison, cache_record, comparison_record
 from .payload_legs import PayloadLegs
 from .plan import plan_path, plan_shortest, prepare, requery
 from .planned import Plan, PlanParts
+from .planner_options import PlannerOptions, merge_options
 from .scenario import EVALUATIONS, EnergyScenario
 from .timing import PhaseClock
 from .trajectory import DEFAULT_TRAJECTORY_RATE
@@ -165,40 +165,36 @@ class EnergyPlanner:
     verify: re-simulate each query's roadmap paths with the reference ``simulate_edge``
     and record the agreement in result.json ``verification`` (docs/design.md §7c).
 
+    The settings after ``world`` are the fields of one :class:`~mpd_pin.PlannerOptions`,
+    given as ``options`` or as keywords (shorthands that replace single fields of
+    ``options``): ``EnergyPlanner(drive, world, mp.PlannerOptions(verify=True),
+    roadmap=...)``; :attr:`options` is what the planner uses.
+
     Use it as a context manager (or call :meth:`close`) when ``scheduler`` starts a
     cluster.
     """
 
-    def __init__(self, drive: Drive, world: World | None = None, *,
-                 roadmap: RoadmapOptions | None = None, evaluation: str = "lazy",
-                 collision: str = "lazy",
-                 planner: str = DEFAULT_PLANNER, motion: MotionOptions | None = None,
-                 sensor_range: float | None = None, hazard_penalty: float = math.inf,
-                 scheduler: Any = None, cache: str | os.PathLike | None = None,
-                 show_progress: bool = True, name: str = "plan",
-                 trajectory_rate: float = DEFAULT_TRAJECTORY_RATE, verify: bool = False) -> None:
+    def __init__(self, drive: Drive, world: World | None = None,
+                 options: PlannerOptions | None = None, **keywords: Any) -> None:
+        opts = merge_options(options, keywords)
         if not isinstance(drive, Drive):
             raise TypeError(f"drive must be an mpd_pin.Drive, got {type(drive).__name__}")
         world = World(()) if world is None else world
         if not isinstance(world, World):
             raise TypeError(f"world must be an mpd_pin.World, got {type(world).__name__}")
-        roadmap = RoadmapOptions() if roadmap is None else roadmap
-        if not isinstance(roadmap, RoadmapOptions):
-            raise TypeError("roadmap must be mpd_pin.RoadmapOptions, got "
-                            f"{type(roadmap).__name__}")
-        if world.hidden_names() and sensor_range is None:
+        if world.hidden_names() and opts.sensor_range is None:
             raise ValueError("sensor_range (m) is required when some obstacles are hidden")
         scn = EnergyScenario(
-            name=name, description="", arm=drive.arm, motor=drive.motors, kp=drive.kp,
-            kd=drive.kd, feedforward=drive.feedforward, world=world, options=roadmap,
+            name=opts.name, description="", arm=drive.arm, motor=drive.motors, kp=drive.kp,
+            kd=drive.kd, feedforward=drive.feedforward, world=world, options=opts.roadmap,
             start=np.zeros(drive.arm.nq), goal=np.zeros(drive.arm.nq),
-            sensor_range=sensor_range, hazard_penalty=float(hazard_penalty),
-            motion=motion if motion is not None else MotionOptions(), source="python",
-            supply=drive.supply,
+            sensor_range=opts.sensor_range, hazard_penalty=float(opts.hazard_penalty),
+            motion=opts.motion, source="python", supply=drive.supply,
         )
-        self._init(configure(scn, planner=planner, evaluation=evaluation, scheduler=scheduler,
-                             collision=collision, verify=verify),
-                   cache, show_progress, trajectory_rate)
+        self._init(configure(scn, planner=opts.planner, evaluation=opts.evaluation,
+                             scheduler=opts.scheduler, collision=opts.collision,
+                             verify=opts.verify),
+                   opts.cache, opts.show_progress, opts.trajectory_rate)
 
     @classmethod
     def from_scenario(cls, scenario: EnergyScenario, *, cache: str | os.PathLike | None = None,
@@ -250,6 +246,19 @@ class EnergyPlanner:
 
     def __exit__(self, *exc: Any) -> None:
         self.close()
+
+    @property
+    def options(self) -> PlannerOptions:
+        """The :class:`~mpd_pin.PlannerOptions` this planner plans with (for a planner made
+        :meth:`from_scenario`, the scenario's settings; ``scheduler`` None for threads)."""
+        scn = self.scenario
+        return PlannerOptions(
+            roadmap=scn.options, evaluation=scn.evaluation, collision=scn.collision,
+            planner=scn.planner, motion=scn.motion, sensor_range=scn.sensor_range,
+            hazard_penalty=float(scn.hazard_penalty),
+            scheduler=scn.scheduler,
+            cache=self.cache, show_progress=self.show_progress, name=scn.name,
+            trajectory_rate=self.trajectory_rate, verify=bool(scn.verify))
 
     @property
     def roadmap(self):

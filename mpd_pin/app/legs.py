@@ -18,7 +18,8 @@ __all__ = ["Leg", "CycleSpec", "leg_configuration"]
 
 
 def leg_configuration(q: Any, nq: int, what: str) -> np.ndarray:
-    """``q`` as (nq,) finite floats (rad), else ValueError naming ``what``."""
+    """``q`` as (nq,) finite floats (rad; m for prismatic joints), else ValueError naming
+    ``what`` (a leg's goal, a query's start or goal)."""
     try:
         arr = np.asarray(q, dtype=float).reshape(-1)
     except (TypeError, ValueError):

@@ -31,6 +31,7 @@ from ..search.registry import PLANNERS
 from ..world import World
 from .config import ConfigError
 from .cycle import Cycle, plan_cycle
+from .legs import leg_configuration
 from .motion_step import make_motion
 from .outputs import add_motion_comparison, cache_record, comparison_record
 from .payload_legs import PayloadLegs
@@ -130,19 +131,6 @@ def configure(scn: EnergyScenario, *, seed: int | None = None, planner: str | No
     return replace(scn, options=options, planner=planner or scn.planner,
                    evaluation=evaluation or scn.evaluation, motion=motion, scheduler=scheduler,
                    collision=collision or scn.collision)
-
-
-def _configuration(q: Any, nq: int, what: str) -> np.ndarray:
-    """``q`` as (nq,) finite floats (rad; m for prismatic joints), else ValueError."""
-    try:
-        arr = np.asarray(q, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what}: expected {nq} joint values (rad), got {q!r}") from None
-    if arr.shape != (nq,):
-        raise ValueError(f"{what}: expected {nq} joint values (rad), got {arr.size}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{what}: joint values must be finite, got {arr.tolist()}")
-    return arr
 
 
 class EnergyPlanner:
@@ -288,8 +276,8 @@ class EnergyPlanner:
             base = replace(base, motion=replace(base.motion,
                                                 max_duration=check_max_duration(max_duration)))
         nq = base.arm.nq
-        bare = replace(base, start=_configuration(start, nq, "start"),
-                       goal=_configuration(goal, nq, "goal"))
+        bare = replace(base, start=leg_configuration(start, nq, "start"),
+                       goal=leg_configuration(goal, nq, "goal"))
         scn = self._payloads.scenario(bare, payload)  # the arm carrying the part
         holding = Drive(scn.arm, scn.motor, scn.kp, scn.kd, feedforward=scn.feedforward)
         for what, q in (("start", scn.start), ("goal", scn.goal)):

@@ -143,3 +143,33 @@ def test_unknown_planner_and_help_lists_planners(tmp_path, capsys):
     out = " ".join(capsys.readouterr().out.split())
     for name, cls in PLANNERS.items():
         assert f"{name} ({cls.__name__})" in out
+
+
+def test_dynamic_out_is_an_existing_file(tmp_path, monkeypatch):
+    """``mpd-pin run env1 --out FILE`` (a two-link scenario) with FILE an existing regular
+    file: exit 2 and one line naming --out and the path before any work — the kind's
+    runner is never called, nothing is written — and the file is left as it was."""
+    import time
+
+    import mpd_pin.app.kinds as kinds
+
+    called = []
+    real = kinds.run_scenario
+
+    def spy(*args, **kwargs):
+        called.append(args)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(kinds, "run_scenario", spy)
+    blocker = tmp_path / "o"
+    blocker.write_text("keep me")
+    start = time.perf_counter()
+    res = run_cli("run", "env1", "--out", str(blocker), "--quiet")
+    elapsed = time.perf_counter() - start
+    line = _one_line_error(res)
+    assert line == (f"mpd-pin: error: --out {str(blocker)!r} exists and is not a "
+                    "directory"), line
+    assert called == []  # no planning: the kind's runner never ran
+    assert elapsed < 10.0, elapsed
+    assert blocker.read_text() == "keep me"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o"]

@@ -289,3 +289,130 @@ def test_bus_bound_is_below_the_simulated_cost_and_tight(eta):
     b = EnergyBound(d)(Q0, Q1, T)
     assert np.all(b <= c)
     assert np.median(b / c) > 0.85  # measured 0.94 (η 0.6) on 300 edges
+
+
+# ---------------------------------------------------------------- perfect-tracking screens
+# The screens integrate supply_power (max(P, 0) − η max(−P, 0) on a shared bus) along the
+# feed-forward. The reference below is written apart from the package's tables: Pinocchio's
+# plain RNEA (armature zeroed, n²J q̈ and n²B q̇ added here from the motor constants), the
+# time derivative of τ_ff by central differences, V_ff = R i + L di/dt + n Ke q̇ with
+# i = τ_ff/(n Kt) (docs/design.md §3b, §3c, §3f), and B⁺, B⁻ by Simpson on 4001 points.
+
+QUINTIC = np.polynomial.Polynomial([0.0, 0.0, 0.0, 10.0, -15.0, 6.0])  # s(τ), §3b
+
+#: Quickstart edges that lower the arm in 1 s: the bus power changes sign on each, and the
+#: regenerated B⁻ is a large share of B⁺ (measured 0.77–1.5), so η counts.
+LOWERING = (np.array([[1.9, 1.2, -1.1], [1.2, 0.3, 0.5], [2.5, -0.5, 0.3], [0.8, 1.0, -0.2]]),
+            np.array([[0.3, -0.4, 0.6], [-0.6, -0.3, -0.2], [0.9, 0.7, -0.4], [-1.2, 0.2, 0.4]]))
+
+
+def _reference_bus(drive: mp.Drive, trajectory, T: float, points: int = 4001):
+    """(B⁺, B⁻) (J) of the perfect-tracking bus power along ``trajectory(t)`` → (q, q̇, q̈)
+    over [0, T] s."""
+    import pinocchio as pin
+    from scipy.integrate import simpson
+
+    model = drive.arm.model.copy()
+    model.armature[:] = 0.0
+    data = model.createData()
+    motors = drive.motor_list
+    n, J, B, Kt, Ke, R, L = (np.array([getattr(m, a) for m in motors]) for a in
+                             ("gear_ratio", "J", "B", "Kt", "Ke", "R", "L"))
+
+    def tau_ff(t):
+        q, qd, qdd = trajectory(t)
+        return pin.rnea(model, data, q, qd, qdd) + n**2 * J * qdd + n**2 * B * qd
+
+    h = 1e-5 * T
+    t = np.linspace(0.0, T, points)
+    P = np.empty(points)
+    for k, tk in enumerate(t):
+        i = tau_ff(tk) / (n * Kt)
+        di = (tau_ff(tk + h) - tau_ff(tk - h)) / (2.0 * h) / (n * Kt)
+        V = R * i + L * di + n * Ke * trajectory(tk)[1]
+        P[k] = V @ i
+    return simpson(np.maximum(P, 0.0), x=t), simpson(np.maximum(-P, 0.0), x=t)
+
+
+def _quintic(q0, q1, T):
+    dq, d1, d2 = q1 - q0, QUINTIC.deriv(1), QUINTIC.deriv(2)
+    return lambda t: (q0 + dq * QUINTIC(t / T), dq * d1(t / T) / T, dq * d2(t / T) / T**2)
+
+
+def test_edge_screen_prices_the_shared_bus_with_regeneration():
+    """``ideal_costs`` of quickstart edges on a shared bus with η = 0.6 is B⁺ − η B⁻ of the
+    reference (and B⁺ with η = 0): with Simpson on 1024 intervals to round-off of the
+    quadrature, with the screen's default 64 within 0.2 % of B⁺ + B⁻."""
+    from mpd_pin.motion.shortcut import ideal_costs
+
+    drive, drive0 = _shared_scenario().drive(), _shared_scenario(mp.Supply("shared")).drive()
+    Q0, Q1 = LOWERING
+    T = _shared_scenario().options.timing(Q0, Q1, drive.arm.model.velocityLimit)[0]
+    ref = np.array([_reference_bus(drive, _quintic(a, b, t), t)
+                    for a, b, t in zip(Q0, Q1, T, strict=True)])
+    bp, bm = ref.T
+    scale = bp + bm
+    assert np.all(bm > 0.5 * bp)  # the case is real: η changes every cost by a lot
+    expected = bp - 0.6 * bm
+    np.testing.assert_allclose(ideal_costs(drive, Q0, Q1, T, samples=1024), expected,
+                               rtol=0, atol=1e-5 * scale.min())
+    np.testing.assert_allclose(ideal_costs(drive0, Q0, Q1, T, samples=1024), bp,
+                               rtol=0, atol=1e-5 * scale.min())
+    assert np.all(np.abs(ideal_costs(drive, Q0, Q1, T) - expected) <= 2e-3 * scale)
+
+
+def test_nonstop_screen_regeneration_is_what_the_bus_gives_back():
+    """``ideal_nonstop`` of a via-point spline stretched to two durations: η = 0.6 lowers
+    the screen below η = 0 by η B⁻ of the reference, and each is the reference's B⁺ − η B⁻;
+    the supply prices the motion, it does not change it (same peak torques)."""
+    from mpd_pin.motion.screen import ideal_nonstop
+    from mpd_pin.motion.spline import via_spline
+
+    drive, drive0 = _shared_scenario().drive(), _shared_scenario(mp.Supply("shared")).drive()
+    W = np.array([[1.9, 1.2, -1.1], [1.2, 0.3, 0.5], [0.3, -0.4, 0.6], [-0.6, -0.3, -0.2]])
+    vs = via_spline(W, np.array([0.0, 1.0, 1.8, 3.0]))
+    durations = np.array([2.5, 4.0])
+
+    def stretched(T):
+        c = vs.unit_duration / T
+        return lambda t: (vs.spline(c * t), vs.spline(c * t, 1) * c, vs.spline(c * t, 2) * c**2)
+
+    bp, bm = np.array([_reference_bus(drive, stretched(T), T) for T in durations]).T
+    assert np.all(bm > 0.5 * bp)
+    e6, peak6 = ideal_nonstop(drive, vs, durations, samples=1024)
+    e0, peak0 = ideal_nonstop(drive0, vs, durations, samples=1024)
+    tol = 1e-5 * (bp + bm)
+    assert np.all(np.abs((e6 - e0) - (-0.6 * bm)) <= tol), (e6 - e0, -0.6 * bm)
+    assert np.all(np.abs(e0 - bp) <= tol) and np.all(np.abs(e6 - (bp - 0.6 * bm)) <= tol)
+    np.testing.assert_array_equal(peak6, peak0)
+
+
+def test_result_trajectory_difference_uses_the_regeneration(tmp_path):
+    """result.json ``motion.trajectory_relative_difference`` on a shared bus with η = 0.6:
+    trajectory.csv's P_bus integrated as the supply draws it (max(P, 0) − η max(−P, 0),
+    trapezoid over the file's samples) against ``total_energy``. Quickstart run backwards,
+    the arm lowering: the bus gives back as much as it draws (B⁻ ≈ B⁺), so a record that
+    forgot η would be off by far more than its sampling (measured 1–3 %)."""
+    from mpd_pin.app.scenario import resolve_scenario
+
+    text = resolve_scenario("quickstart").read_text()
+    start, goal = "start_ee = [0.85, -0.35]", "goal_ee = [-0.7, 0.75]"
+    assert start in text and goal in text
+    text = text.replace(start, "start_ee = [-0.7, 0.75]").replace(goal, "goal_ee = [0.85, -0.35]")
+    path = tmp_path / "qs_down.toml"
+    path.write_text(text + '\n[supply]\nbus = "shared"\nregeneration = 0.6\n')
+    out = tmp_path / "out"
+    res = run_cli("run", path, "--out", out, "--quiet", "--no-replay", "--no-plots",
+                  "--no-refine")
+    assert res.returncode == 0, res.stderr
+    r = json.loads((out / "result.json").read_text())
+    bp, bm = r["motion"]["bus_energy"]
+    assert 0.6 * bm > 0.5 * abs(bp - 0.6 * bm)  # η counts: forgetting it is off by > 50 %
+    assert r["total_energy"] == pytest.approx(bp - 0.6 * bm, rel=1e-12)
+    data = np.genfromtxt(out / "trajectory.csv", delimiter=",", names=True)
+    p = data["P_bus"]
+    drawn = np.trapezoid(np.maximum(p, 0) - 0.6 * np.maximum(-p, 0), data["t"])
+    total = r["total_energy"]
+    diff = r["motion"]["trajectory_relative_difference"]
+    assert diff == pytest.approx(abs(drawn - total) / abs(total), rel=1e-6)
+    assert diff < 0.05

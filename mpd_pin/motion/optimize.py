@@ -50,8 +50,8 @@ from .problem import OptimizeSettings, Problem, fit_curve, spline_curve
 from .screen import joint_limits
 from .spline import ViaSpline, unit_knots, via_spline
 
-__all__ = ["OptimizeSettings", "OptimizedMotion", "optimize_curve", "optimize_motion", "polish",
-           "spline_curve", "fit_curve", "seed_curve"]
+__all__ = ["OptimizeSettings", "OptimizedMotion", "certify_curve", "optimize_curve",
+           "optimize_motion", "optimize_seeds", "spline_curve", "fit_curve", "seed_curve"]
 
 @dataclass
 class OptimizedMotion:
@@ -60,6 +60,8 @@ class OptimizedMotion:
 
     motion: MotionEnergy | None
     record: dict[str, Any] = field(default_factory=dict)
+    #: the solved curve (also when it was not certified or priced: a screening solve)
+    curve: ViaSpline | None = None
 
 
 # ----------------------------------------------------------------------------- solve
@@ -155,6 +157,7 @@ def optimize_curve(
     settings: OptimizeSettings | None = None,
     seed_motion: MotionEnergy | None = None,
     distances: Any = None,
+    final: bool = True,
 ) -> OptimizedMotion:
     """Optimise the motion of duration ``duration`` (s, on the dt grid) seeded by the curve
     ``seed`` (stretched to that duration) and keep it when it is certified free by
@@ -162,6 +165,8 @@ def optimize_curve(
     ``options`` (:class:`~mpd_pin.planning.roadmap.RoadmapOptions`) and cheaper than
     ``seed_motion`` when simulated (docs/design.md §9g). ``distances``: a
     :class:`~mpd_pin.collision.distance.PairDistances` of ``checker`` to reuse.
+    ``final=False``: a screening solve — one solve, its curve and screen energy
+    (``record["screen_energy_out"]``, J) only, neither certified nor simulated.
     Never raises for a failed solve: the seed is kept and the record says why."""
     settings = settings or OptimizeSettings()
     w0, c0 = time.perf_counter(), time.process_time()
@@ -182,11 +187,11 @@ def optimize_curve(
         distances = PairDistances(checker)
     with threadpool_limits(1):  # small dense algebra: a second BLAS thread only spins
         return _optimize(drive, checker, T, options, settings, seed_motion, distances,
-                         C0, n_c, w0, c0)
+                         C0, n_c, w0, c0, final)
 
 
 def _optimize(drive, checker, T, options, settings, seed_motion, distances, C0, n_c,
-              w0, c0) -> OptimizedMotion:
+              w0, c0, final=True) -> OptimizedMotion:
     """The body of :func:`optimize_curve` (BLAS on one thread)."""
     rec: dict[str, Any] = {"duration": T, "control_points": n_c,
                            "seed_energy": None if seed_motion is None
@@ -218,6 +223,10 @@ def _optimize(drive, checker, T, options, settings, seed_motion, distances, C0, 
         rec.update(info)
         rec["screen_energy_out"] = prob.energy(x)
         curve = spline_curve(prob.knots, prob.C(x), T)
+        if not final:
+            rec.update(seconds=time.perf_counter() - w0, cpu_seconds=time.process_time() - c0,
+                       margin=settings.margin, screened=True)
+            return OptimizedMotion(None, rec, curve)
         if checker is not None:
             fail = _sampled_failure(checker, curve)
             # collision samples where it came too close between them, for the next solve
@@ -242,44 +251,124 @@ def _optimize(drive, checker, T, options, settings, seed_motion, distances, C0, 
     if kept is None:
         rec.setdefault("why", "no certified optimum")
         rec["kept_seed"] = True
-        return OptimizedMotion(None, rec)
+        return OptimizedMotion(None, rec, curve)
+    return _judge(kept, seed_motion, rec, curve)
+
+
+def _judge(kept: MotionEnergy, seed_motion: MotionEnergy | None, rec: dict[str, Any],
+           curve: ViaSpline) -> OptimizedMotion:
+    """Keep the certified, simulated optimum ``kept`` when it is feasible and cheaper than
+    ``seed_motion``; else the seed, ``rec`` saying why."""
     rec["energy"] = float(kept.total_energy)
     if not kept.feasible:
         rec.update(kept_seed=True, why=f"the optimum is infeasible when simulated: "
                    f"{kept.reason}")
-        return OptimizedMotion(None, rec)
+        return OptimizedMotion(None, rec, curve)
     if seed_motion is not None and seed_motion.feasible and (
             kept.total_energy >= seed_motion.total_energy):
         rec.update(kept_seed=True, why="no less energy than the seed when simulated")
-        return OptimizedMotion(None, rec)
+        return OptimizedMotion(None, rec, curve)
     rec["kept_seed"] = False
-    return OptimizedMotion(kept, rec)
+    return OptimizedMotion(kept, rec, curve)
 
 
-def polish(drive: Drive, checker: Any, out: OptimizedMotion, options: Any,
-           settings: OptimizeSettings | None = None, distances: Any = None) -> OptimizedMotion:
-    """Two solves more from an optimum ``out.motion``, each with a fresh SLSQP model and
-    ``settings.polish`` iterations (docs/design.md §9g): one on its own control polygon
-    (SLSQP's BFGS model can meet ``ftol`` short of the optimum), then one on a finer
-    spline, its curve fitted with ``settings.polish_points`` more control points per joint
-    (the coarse spline leaves energy on the table: an independent optimiser on a finer
-    spline found up to 15 % less). Each is kept only when cheaper, simulated;
-    ``record["polish"]`` holds the two records."""
+def certify_curve(drive: Drive, checker: Any, curve: ViaSpline, options: Any,
+                  seed_motion: MotionEnergy | None = None) -> OptimizedMotion:
+    """A solved curve (a screening solve's) kept as it is: sampled, certified by the
+    Bernstein boxes (§9c) and simulated at its duration, and kept when feasible and
+    cheaper than ``seed_motion`` (docs/design.md §9g)."""
+    w0, c0 = time.perf_counter(), time.process_time()
+    rec: dict[str, Any] = {"duration": float(curve.unit_duration),
+                           "control_points": int(curve.spline.c.shape[0])}
+    if checker is not None:
+        fail = _sampled_failure(checker, curve)
+        if fail is None:
+            fail = first_failure(checker, curve, options.resolution)
+        if fail is not None:
+            rec.update(certified=False, kept_seed=True, why=f"not certified free at "
+                       f"t = {fail:.3f} s", cpu_seconds=time.process_time() - c0,
+                       seconds=time.perf_counter() - w0)
+            return OptimizedMotion(None, rec, curve)
+    rec["certified"] = True
+    kept = _price(drive, curve, float(curve.unit_duration), options)
+    rec.update(cpu_seconds=time.process_time() - c0, seconds=time.perf_counter() - w0)
+    return _judge(kept, seed_motion, rec, curve)
+
+
+def optimize_seeds(
+    drive: Drive,
+    checker: Any,
+    seeds: list[tuple[str, ViaSpline, float, MotionEnergy | None]],
+    options: Any,
+    settings: OptimizeSettings | None = None,
+    distances: Any = None,
+    on_seed: Any = None,
+) -> tuple[str | None, OptimizedMotion, list[dict[str, Any]]]:
+    """Optimise from several seeds (name, curve, duration s, its simulated motion or None),
+    spending the solves where they pay (docs/design.md §9g): each seed gets a screening
+    solve of ``settings.screen`` SLSQP iterations on its own spline (neither certified nor
+    simulated); the ``settings.finish`` of least screen energy (those within
+    ``settings.finish_factor`` of the least) are each solved again, with a fresh SLSQP
+    model and ``settings.polish`` iterations, on a finer spline (``settings.polish_points``
+    more control points per joint), then certified and simulated (when that is not kept,
+    the screening optimum itself is certified and simulated); the cheapest simulated
+    result that beats its seed wins. Returns the winning seed's name
+    (None: no seed was solved), the outcome (``.motion`` None: every seed kept, its
+    record's ``why`` saying why) and one record per seed run. ``on_seed(name)`` is called
+    after each seed's screening solve."""
     settings = settings or OptimizeSettings()
-    if out.motion is None or not settings.polish:
-        return out
-    won, records, cpu = out.motion, [], 0.0
-    for extra in [0] + [int(settings.polish_points)] * bool(settings.polish_points):
-        n_c = int(won.curve.spline.c.shape[0]) + extra
-        again = optimize_curve(drive, checker, seed_curve(drive, won), won.duration, options,
-                               settings=replace(settings, budget=int(settings.polish),
-                                                control_points=n_c),
-                               seed_motion=won, distances=distances)
-        records.append(again.record)
-        cpu += float(again.record["cpu_seconds"])
-        won = again.motion or won
-    rec = {**out.record, "polish": records, "cpu_seconds": out.record["cpu_seconds"] + cpu}
-    return OptimizedMotion(won, rec)
+    if distances is None and checker is not None:
+        distances = PairDistances(checker)
+    c0 = time.process_time()
+    runs, screened = [], []
+    for name, curve, T, me in seeds:
+        out = optimize_curve(drive, checker, curve, T, options, seed_motion=me,
+                             settings=replace(settings, budget=int(settings.screen)),
+                             distances=distances, final=False)
+        runs.append({"seed": name, "seed_execution": None if me is None else me.execution,
+                     **out.record})
+        energy = out.record.get("screen_energy_out", np.nan)
+        if out.curve is not None and math.isfinite(energy):
+            screened.append((energy, len(screened), name, out.curve, me))
+        if on_seed is not None:
+            on_seed(name)
+    if not screened:
+        why = "; ".join(f"{r['seed']}: {r.get('why', 'no solve')}" for r in runs)
+        return None, OptimizedMotion(None, {"kept_seed": True, "why": why, "runs": runs,
+                                            "cpu_seconds": time.process_time() - c0}), runs
+    screened.sort()
+    best: tuple[str, OptimizedMotion] | None = None
+    finish = []
+    for energy, _, name, coarse, me in screened[: max(1, int(settings.finish))]:
+        if energy > settings.finish_factor * screened[0][0]:
+            break
+        T = float(coarse.unit_duration)
+        # on to convergence on its own polygon (a restart), then on the finer spline
+        more = optimize_curve(drive, checker, coarse, T, options, seed_motion=me,
+                              distances=distances, final=False, settings=settings)
+        coarse = more.curve or coarse
+        n_c = int(coarse.spline.c.shape[0]) + int(settings.polish_points)
+        out = optimize_curve(drive, checker, coarse, T, options, seed_motion=me,
+                             distances=distances,
+                             settings=replace(settings, budget=int(settings.polish),
+                                              control_points=n_c))
+        records = [more.record, out.record]
+        if out.motion is None:  # the finer solve was not kept: the screening optimum itself
+            out = certify_curve(drive, checker, coarse, options, me)
+            records.append(out.record)
+        finish.append({"seed": name, **records[-1], "solves": records})
+        if out.motion is not None and (best is None or out.motion.total_energy
+                                       < best[1].motion.total_energy):
+            best = (name, out)
+    if best is None:
+        why = "; ".join(f"{r['seed']}: {r.get('why', '')}" for r in finish)
+        return None, OptimizedMotion(None, {"kept_seed": True, "why": why, "runs": runs,
+                                            "finish": finish,
+                                            "cpu_seconds": time.process_time() - c0}), runs
+    name, out = best
+    rec = {**next(r for r in finish if r["seed"] == name), "finish": finish, "runs": runs,
+           "cpu_seconds": time.process_time() - c0}
+    return name, OptimizedMotion(out.motion, rec, out.curve), runs
 
 
 def _sampled_failure(checker: Any, curve: ViaSpline, samples: int = 400) -> float | None:
@@ -364,12 +453,11 @@ def optimize_motion(
                                               f"{fail * T / seed.unit_duration:.3f} s"]))
     base.curve = None  # the seed is the spline through its waypoints: recorded as such
     base.fastest = t_min
-    out = optimize_curve(drive, checker, seed, T, options, settings=settings,
-                         seed_motion=base)
+    _, out, _ = optimize_seeds(drive, checker, [("waypoints", seed, T, base)], options,
+                               settings)
     if out.motion is None:
         base.optimization = out.record
         return base
-    out = polish(drive, checker, out, options, settings)
     out.motion.fastest = t_min
     out.motion.optimization = out.record
     out.motion.alternative = base

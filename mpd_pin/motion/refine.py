@@ -251,62 +251,34 @@ OPTIMIZED = "optimised"
 def _optimize_best(drive: Drive, checker: Any, options: Any, motion: MotionOptions,
                    by_name: dict[str, MotionEnergy], feasible: list[str], best: str,
                    shown) -> tuple[str, dict[str, Any]]:
-    """Optimise the ``motion.seeds`` cheapest feasible candidates at their own duration
+    """Optimise from the ``motion.seeds`` cheapest feasible candidates at their own duration
     (docs/design.md §9g; a stop-and-go candidate seeded by the spline through its
-    polyline); the cheapest certified, simulated result that beats its seed becomes
-    ``by_name[OPTIMIZED]``. Returns the winner's name and ``motion.optimization``."""
-    from ..collision.distance import PairDistances
-    from .optimize import OptimizedMotion, OptimizeSettings, optimize_curve, polish, seed_curve
+    polyline; :func:`~mpd_pin.motion.optimize.optimize_seeds`); the certified, simulated
+    result, when it beats its seed, becomes ``by_name[OPTIMIZED]``. Returns the winner's
+    name and ``motion.optimization``."""
+    from .optimize import optimize_seeds, seed_curve
 
     order = sorted(feasible, key=lambda n: by_name[n].total_energy)
     cheapest = by_name[order[0]].total_energy
     order = [n for n in order if by_name[n].total_energy <= SEED_FACTOR * cheapest
              ][: motion.seeds]
-    runs, winner = [], None
-    distances = None if checker is None else PairDistances(checker)
-    settings = OptimizeSettings()
-    left = settings.query_budget
-    for name in order:
-        me = by_name[name]
-        if left < 0.1 * settings.query_budget:
-            runs.append({"seed": name, "seed_execution": me.execution, "kept_seed": True,
-                         "why": f"not optimised: the query's iteration budget "
-                                f"({settings.query_budget}) was used up",
-                         "cpu_seconds": 0.0, "seconds": 0.0})
-            shown.update(1)
-            continue
-        shown.set_postfix_str(name)
-        out = optimize_curve(drive, checker, seed_curve(drive, me), me.duration, options,
-                             seed_motion=me, distances=distances,
-                             settings=dataclasses.replace(settings,
-                                                           budget=min(settings.budget, left)))
-        left -= int(out.record.get("iterations", 0))
-        runs.append({"seed": name, "seed_execution": me.execution, **out.record})
-        if out.motion is not None and (winner is None
-                                        or out.motion.total_energy < winner[1].total_energy):
-            winner = (name, out.motion)
-        shown.update(1)
-    rec: dict[str, Any] = {"runs": runs, "cpu_seconds": float(sum(r["cpu_seconds"]
-                                                                    for r in runs))}
-    if winner is not None:
-        out = polish(drive, checker, OptimizedMotion(winner[1], {"cpu_seconds": 0.0}),
-                     options, settings, distances)
-        rec["polish"] = out.record.get("polish")
-        rec["cpu_seconds"] += float(out.record["cpu_seconds"])
-        winner = (winner[0], out.motion)
-    if winner is None:
+    seeds = [(n, seed_curve(drive, by_name[n]), by_name[n].duration, by_name[n])
+             for n in order]
+    shown.set_postfix_str(order[0])
+    name, out, runs = optimize_seeds(drive, checker, seeds, options,
+                                     on_seed=lambda n: shown.update(1))
+    rec = dict(out.record)
+    if out.motion is None:
         rec.update(kept_seed=True, seed=best, energy_before=by_name[best].total_energy,
-                   energy_after=by_name[best].total_energy,
-                   why="; ".join(f"{r['seed']}: {r.get('why', '')}" for r in runs))
+                   energy_after=by_name[best].total_energy)
         return best, rec
-    name, m = winner
+    m = out.motion
     m.alternative = by_name[name]
     _stretch_front(drive, options, motion, m, by_name[name], name)
     by_name[OPTIMIZED] = m
-    run = next(r for r in runs if r["seed"] == name)
     rec.update(kept_seed=False, seed=name, energy_before=by_name[name].total_energy,
-               energy_after=m.total_energy, iterations=run["iterations"],
-               certified=run["certified"])
+               energy_after=m.total_energy, iterations=int(rec.get("iterations", 0)),
+               certified=bool(rec.get("certified", True)))
     return OPTIMIZED, rec
 
 

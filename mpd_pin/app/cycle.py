@@ -58,7 +58,7 @@ from ..dynamics.payload import Payload
 from ..errors import CycleTimeTooShort, NoMotionWithinDuration, NoPathError
 from .config import ConfigError
 from .legs import CycleSpec, Leg, leg_configuration
-from .planned import Plan, check_output_dir
+from .planned import Plan, check_output_dir, plan_and_save
 from .results import to_jsonable, write_json
 
 __all__ = ["Leg", "CycleLeg", "Cycle", "CycleSpec", "plan_cycle", "allocate", "leg_front",
@@ -563,21 +563,19 @@ def run_cycle(planner: Any, scn: Any, out_dir: Path, *, replay: bool = True,
     :class:`~mpd_pin.EnergyPlanner`."""
     spec: CycleSpec = scn.cycle
     out_dir = Path(out_dir)
-    created = check_output_dir(out_dir)
-    try:
-        cycle = planner.plan_cycle(spec.legs, start=scn.start, cycle_time=spec.cycle_time)
-    except CycleTimeTooShort as exc:
+
+    def save_outcome(exc: CycleTimeTooShort) -> None:  # cycle.json says why
         write_json(out_dir / "cycle.json", to_jsonable({
             "format": CYCLE_FORMAT, "name": scn.name, "feasible": False, "reason": str(exc),
             "cycle_time": exc.max_duration, "minimum_cycle_time": exc.minimum,
             "fastest": exc.legs, "dwell": exc.dwell}))
         exc.args = (f"{exc}; {str(out_dir / 'cycle.json')!r} says why",)
-        raise
-    except BaseException:
-        if created and out_dir.is_dir() and not any(out_dir.iterdir()):
-            out_dir.rmdir()
-        raise
-    return cycle.save(out_dir, replay=replay, plots=plots)
+
+    return plan_and_save(
+        out_dir, lambda: planner.plan_cycle(spec.legs, start=scn.start,
+                                            cycle_time=spec.cycle_time),
+        lambda cycle: cycle.save(out_dir, replay=replay, plots=plots),
+        outcome=CycleTimeTooShort, save_outcome=save_outcome)
 
 
 def cycle_summary(scn: Any, result: dict[str, Any], out_dir: Path) -> str:

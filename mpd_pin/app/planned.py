@@ -13,9 +13,10 @@ from __future__ import annotations
 import os
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -37,7 +38,10 @@ from .timing import PhaseClock
 from .trajectory import joint_trajectory, write_trajectory_csv, write_trajectory_json
 from .verify import Verification
 
-__all__ = ["Plan", "PlanParts", "RoadmapPath", "check_output_dir"]
+__all__ = ["Plan", "PlanParts", "RoadmapPath", "check_output_dir", "plan_and_save"]
+
+P = TypeVar("P")
+R = TypeVar("R")
 
 
 def check_output_dir(out_dir: Path) -> bool:
@@ -61,6 +65,32 @@ def check_output_dir(out_dir: Path) -> bool:
         reason = exc.strerror or type(exc).__name__
         raise ConfigError(f"--out {str(out_dir)!r} cannot be written ({reason})") from None
     return created
+
+
+def plan_and_save(out_dir: Path, plan: Callable[[], P], save: Callable[[P], R], *,
+                  outcome: type[BaseException] | tuple[type[BaseException], ...] = (),
+                  save_outcome: Callable[[Any], None] | None = None) -> R:
+    """The outer steps of every run that writes a folder (``mpd-pin run``, a cycle,
+    :meth:`Plan.save`): check ``out_dir`` (:func:`check_output_dir`: created if needed and
+    probed, a ConfigError before any work), ``plan()``, then ``save(planned)``, whose
+    value is returned. A planning ``outcome`` raised by ``plan()`` (an answer all the same:
+    ``NoMotionWithinDuration``, ``CycleTimeTooShort``) has its files written by
+    ``save_outcome(exc)`` and is raised again; on any failure a folder created here and
+    still empty is removed again."""
+    out_dir = Path(out_dir)
+    created = check_output_dir(out_dir)
+    try:
+        try:
+            planned = plan()
+        except outcome as exc:
+            if save_outcome is not None:
+                save_outcome(exc)
+            raise
+        return save(planned)
+    except BaseException:
+        if created and out_dir.is_dir() and not any(out_dir.iterdir()):
+            out_dir.rmdir()
+        raise
 
 
 @dataclass(frozen=True)
@@ -212,20 +242,18 @@ class Plan:
         A folder this call created is removed again if it fails before writing a file.
         ``show_progress`` (default: the planner's) prints a status line per phase."""
         out_dir = Path(out_dir)
-        created = check_output_dir(out_dir)
         shown = self._parts.show_progress if show_progress is None else bool(show_progress)
-        try:
-            return self._save_in(out_dir, replay, plots, shown)
-        except BaseException:
-            if created and out_dir.is_dir() and not any(out_dir.iterdir()):
-                out_dir.rmdir()
-            raise
+        return plan_and_save(out_dir, lambda: self,
+                             lambda plan: plan._save_in(out_dir, replay, plots, shown))
 
     def _save_in(self, out_dir: Path, replay: bool, plots: bool,
                  shown: bool) -> dict[str, Any]:
         from ..progress import status
 
-        p, clock = self._parts, self._parts.clock
+        # the writing phases are timed on a copy: the query's clock (``seconds``, the
+        # record of to_dict() before saving) stays as the query left it, and a second save
+        # times its own writing, not the first one's too
+        p, clock = self._parts, self._parts.clock.copy()
         total, cpu_total = clock.wall["total"], clock.cpu["total"]
         w0, c0 = time.perf_counter(), time.process_time()
         names, kt = p.scenario.arm.joint_names, p.setup.drive.torque_per_amp

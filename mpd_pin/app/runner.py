@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import NoMotionWithinDuration
-from .planned import check_output_dir
+from .planned import check_output_dir, plan_and_save
 from .planner import EnergyPlanner
 from .scenario import EnergyScenario
 from .trajectory import DEFAULT_TRAJECTORY_RATE
@@ -73,14 +73,10 @@ def run_energy_scenario(
             from .cycle import run_cycle
 
             return run_cycle(planner, scn, out_dir, replay=replay, plots=plots)
-        created = check_output_dir(out_dir)
-        try:
-            plan = planner.plan(scn.start, scn.goal)
-        except NoMotionWithinDuration as exc:  # an answer all the same: its files, then why
+
+        def save_outcome(exc: NoMotionWithinDuration) -> None:  # its files, then why
             exc.result = exc.plan.save(out_dir, replay=replay, plots=plots)
-            raise
-        except BaseException:
-            if created and out_dir.is_dir() and not any(out_dir.iterdir()):
-                out_dir.rmdir()
-            raise
-        return plan.save(out_dir, replay=replay, plots=plots)
+
+        return plan_and_save(out_dir, lambda: planner.plan(scn.start, scn.goal),
+                             lambda plan: plan.save(out_dir, replay=replay, plots=plots),
+                             outcome=NoMotionWithinDuration, save_outcome=save_outcome)

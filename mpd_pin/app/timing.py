@@ -30,6 +30,14 @@ class PhaseClock:
             self.wall[name] = self.wall.get(name, 0.0) + time.perf_counter() - w
             self.cpu[name] = self.cpu.get(name, 0.0) + time.process_time() - c
 
+    def copy(self) -> PhaseClock:
+        """A clock with the same phases so far and the same start, timed on apart from
+        this one."""
+        out = PhaseClock.__new__(PhaseClock)
+        out.wall, out.cpu = dict(self.wall), dict(self.cpu)
+        out._wall0, out._cpu0 = self._wall0, self._cpu0
+        return out
+
     def finish(self) -> None:
         """Record the ``total`` since construction."""
         self.wall["total"] = time.perf_counter() - self._wall0

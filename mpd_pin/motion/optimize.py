@@ -303,19 +303,19 @@ def optimize_seeds(
     settings: OptimizeSettings | None = None,
     distances: Any = None,
     on_seed: Any = None,
-) -> tuple[str | None, OptimizedMotion, list[dict[str, Any]]]:
+) -> tuple[str | None, OptimizedMotion]:
     """Optimise from several seeds (name, curve, duration s, its simulated motion or None),
     spending the solves where they pay (docs/design.md §9g): each seed gets a screening
     solve of ``settings.screen`` SLSQP iterations on its own spline (neither certified nor
-    simulated); the ``settings.finish`` of least screen energy (those within
-    ``settings.finish_factor`` of the least) are each solved again, with a fresh SLSQP
-    model and ``settings.polish`` iterations, on a finer spline (``settings.polish_points``
-    more control points per joint), then certified and simulated (when that is not kept,
-    the screening optimum itself is certified and simulated); the cheapest simulated
-    result that beats its seed wins. Returns the winning seed's name
-    (None: no seed was solved), the outcome (``.motion`` None: every seed kept, its
-    record's ``why`` saying why) and one record per seed run. ``on_seed(name)`` is called
-    after each seed's screening solve."""
+    simulated); the one of least screen energy goes on to convergence on its own control
+    polygon (fresh SLSQP models, ``settings.budget`` iterations), then is solved once more
+    on a finer spline (``settings.polish_points`` more control points per joint,
+    ``settings.polish`` iterations), certified and simulated; when that is not kept, the
+    converged coarse curve is certified and simulated instead. Returns the seed's name
+    (None: no optimum kept) and the outcome (``.motion`` None: the seed is kept,
+    ``record["why"]`` says why; ``record["runs"]``: the screening solves,
+    ``record["solves"]``: the finishing ones). ``on_seed(name)`` is called after each
+    seed's screening solve."""
     settings = settings or OptimizeSettings()
     if distances is None and checker is not None:
         distances = PairDistances(checker)
@@ -335,40 +335,26 @@ def optimize_seeds(
     if not screened:
         why = "; ".join(f"{r['seed']}: {r.get('why', 'no solve')}" for r in runs)
         return None, OptimizedMotion(None, {"kept_seed": True, "why": why, "runs": runs,
-                                            "cpu_seconds": time.process_time() - c0}), runs
-    screened.sort()
-    best: tuple[str, OptimizedMotion] | None = None
-    finish = []
-    for energy, _, name, coarse, me in screened[: max(1, int(settings.finish))]:
-        if energy > settings.finish_factor * screened[0][0]:
-            break
-        T = float(coarse.unit_duration)
-        # on to convergence on its own polygon (a restart), then on the finer spline
-        more = optimize_curve(drive, checker, coarse, T, options, seed_motion=me,
-                              distances=distances, final=False, settings=settings)
-        coarse = more.curve or coarse
-        n_c = int(coarse.spline.c.shape[0]) + int(settings.polish_points)
-        out = optimize_curve(drive, checker, coarse, T, options, seed_motion=me,
-                             distances=distances,
-                             settings=replace(settings, budget=int(settings.polish),
-                                              control_points=n_c))
-        records = [more.record, out.record]
-        if out.motion is None:  # the finer solve was not kept: the screening optimum itself
-            out = certify_curve(drive, checker, coarse, options, me)
-            records.append(out.record)
-        finish.append({"seed": name, **records[-1], "solves": records})
-        if out.motion is not None and (best is None or out.motion.total_energy
-                                       < best[1].motion.total_energy):
-            best = (name, out)
-    if best is None:
-        why = "; ".join(f"{r['seed']}: {r.get('why', '')}" for r in finish)
-        return None, OptimizedMotion(None, {"kept_seed": True, "why": why, "runs": runs,
-                                            "finish": finish,
-                                            "cpu_seconds": time.process_time() - c0}), runs
-    name, out = best
-    rec = {**next(r for r in finish if r["seed"] == name), "finish": finish, "runs": runs,
+                                            "cpu_seconds": time.process_time() - c0})
+    energy, _, name, coarse, me = min(screened)
+    T = float(coarse.unit_duration)
+    # on to convergence on its own polygon (a restart), then on the finer spline
+    more = optimize_curve(drive, checker, coarse, T, options, seed_motion=me,
+                          distances=distances, final=False, settings=settings)
+    coarse = more.curve or coarse
+    n_c = int(coarse.spline.c.shape[0]) + int(settings.polish_points)
+    out = optimize_curve(drive, checker, coarse, T, options, seed_motion=me,
+                         distances=distances,
+                         settings=replace(settings, budget=int(settings.polish),
+                                          control_points=n_c))
+    solves = [more.record, out.record]
+    if out.motion is None:  # the finer solve was not kept: the coarse curve as it is
+        out = certify_curve(drive, checker, coarse, options, me)
+        solves.append(out.record)
+    rec = {**out.record, "seed": name, "solves": solves, "runs": runs,
            "cpu_seconds": time.process_time() - c0}
-    return name, OptimizedMotion(out.motion, rec, out.curve), runs
+    return (name if out.motion is not None else None), OptimizedMotion(out.motion, rec,
+                                                                       out.curve)
 
 
 def _sampled_failure(checker: Any, curve: ViaSpline, samples: int = 400) -> float | None:
@@ -453,8 +439,7 @@ def optimize_motion(
                                               f"{fail * T / seed.unit_duration:.3f} s"]))
     base.curve = None  # the seed is the spline through its waypoints: recorded as such
     base.fastest = t_min
-    _, out, _ = optimize_seeds(drive, checker, [("waypoints", seed, T, base)], options,
-                               settings)
+    _, out = optimize_seeds(drive, checker, [("waypoints", seed, T, base)], options, settings)
     if out.motion is None:
         base.optimization = out.record
         return base

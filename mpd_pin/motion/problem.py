@@ -39,13 +39,11 @@ class OptimizeSettings:
     check; budget: SLSQP iterations one seed's solves may take in all before they stop
     where they are (iterations, not seconds, so that a result never depends on the
     machine's speed or load); screen: iterations of each seed's screening solve when
-    several seeds compete (:func:`~mpd_pin.motion.optimize.optimize_seeds`); finish: how
-    many of the screened seeds (the least screen energy first, within ``finish_factor``
-    of the least) are finished on the finer spline; cpu_limit:
+    several seeds compete (:func:`~mpd_pin.motion.optimize.optimize_seeds`); cpu_limit:
     CPU seconds after which a solve stops regardless, a guard against pathological solves
-    only (never reached on the bench's queries); polish: iterations of the solve that
-    finishes the best screened seed, with a fresh SLSQP model, on ``polish_points`` more
-    control points per joint.
+    only (never reached on the bench's queries); polish: iterations of the last solve of
+    the best screened seed, with a fresh SLSQP model, on ``polish_points`` more control
+    points per joint.
     """
 
     control_points: int = 0
@@ -63,8 +61,6 @@ class OptimizeSettings:
     retries: int = 3
     budget: int = 240
     screen: int = 80
-    finish: int = 1
-    finish_factor: float = 1.25
     cpu_limit: float = 6.0
     polish: int = 240
     polish_points: int = 8

@@ -22,6 +22,7 @@ from ..dynamics.motor import Drive
 from ..dynamics.supply import PER_JOINT
 from ..progress import bar as progress_bar
 from .energy import EXECUTIONS, MotionEnergy, stretch_front, trajectory_energy
+from .optimize import optimize_seeds, seed_curve
 from .relax import relax_path
 from .shortcut import shortcut_path
 
@@ -256,8 +257,6 @@ def _optimize_best(drive: Drive, checker: Any, options: Any, motion: MotionOptio
     polyline; :func:`~mpd_pin.motion.optimize.optimize_seeds`); the certified, simulated
     result, when it beats its seed, becomes ``by_name[OPTIMIZED]``. Returns the winner's
     name and ``motion.optimization``."""
-    from .optimize import optimize_seeds, seed_curve
-
     order = sorted(feasible, key=lambda n: by_name[n].total_energy)
     cheapest = by_name[order[0]].total_energy
     order = [n for n in order if by_name[n].total_energy <= SEED_FACTOR * cheapest
@@ -265,8 +264,8 @@ def _optimize_best(drive: Drive, checker: Any, options: Any, motion: MotionOptio
     seeds = [(n, seed_curve(drive, by_name[n]), by_name[n].duration, by_name[n])
              for n in order]
     shown.set_postfix_str(order[0])
-    name, out, runs = optimize_seeds(drive, checker, seeds, options,
-                                     on_seed=lambda n: shown.update(1))
+    name, out = optimize_seeds(drive, checker, seeds, options,
+                               on_seed=lambda n: shown.update(1))
     rec = dict(out.record)
     if out.motion is None:
         rec.update(kept_seed=True, seed=best, energy_before=by_name[best].total_energy,

@@ -50,7 +50,7 @@ from .problem import OptimizeSettings, Problem, fit_curve, spline_curve
 from .screen import joint_limits
 from .spline import ViaSpline, unit_knots, via_spline
 
-__all__ = ["OptimizeSettings", "OptimizedMotion", "certify_curve", "optimize_curve",
+__all__ = ["OptimizeSettings", "OptimizedMotion", "price_curve", "optimize_curve",
            "optimize_motion", "optimize_seeds", "spline_curve", "fit_curve", "seed_curve"]
 
 @dataclass
@@ -157,7 +157,7 @@ def optimize_curve(
     settings: OptimizeSettings | None = None,
     seed_motion: MotionEnergy | None = None,
     distances: Any = None,
-    final: bool = True,
+    stage: str = "price",
 ) -> OptimizedMotion:
     """Optimise the motion of duration ``duration`` (s, on the dt grid) seeded by the curve
     ``seed`` (stretched to that duration) and keep it when it is certified free by
@@ -165,8 +165,11 @@ def optimize_curve(
     ``options`` (:class:`~mpd_pin.planning.roadmap.RoadmapOptions`) and cheaper than
     ``seed_motion`` when simulated (docs/design.md §9g). ``distances``: a
     :class:`~mpd_pin.collision.distance.PairDistances` of ``checker`` to reuse.
-    ``final=False``: a screening solve — one solve, its curve and screen energy
-    (``record["screen_energy_out"]``, J) only, neither certified nor simulated.
+    ``stage``: "price" (all of the above), "certify" (solved again where the certificate
+    fails, as for "price", but not simulated: ``.motion`` stays None, ``.curve`` and
+    ``record["certified"]`` say what was found) or "screen" (one solve: its curve and
+    screen energy ``record["screen_energy_out"]`` (J) only, neither certified nor
+    simulated).
     Never raises for a failed solve: the seed is kept and the record says why."""
     settings = settings or OptimizeSettings()
     w0, c0 = time.perf_counter(), time.process_time()
@@ -187,11 +190,11 @@ def optimize_curve(
         distances = PairDistances(checker)
     with threadpool_limits(1):  # small dense algebra: a second BLAS thread only spins
         return _optimize(drive, checker, T, options, settings, seed_motion, distances,
-                         C0, n_c, w0, c0, final)
+                         C0, n_c, w0, c0, stage)
 
 
 def _optimize(drive, checker, T, options, settings, seed_motion, distances, C0, n_c,
-              w0, c0, final=True) -> OptimizedMotion:
+              w0, c0, stage="price") -> OptimizedMotion:
     """The body of :func:`optimize_curve` (BLAS on one thread)."""
     rec: dict[str, Any] = {"duration": T, "control_points": n_c,
                            "seed_energy": None if seed_motion is None
@@ -223,7 +226,7 @@ def _optimize(drive, checker, T, options, settings, seed_motion, distances, C0, 
         rec.update(info)
         rec["screen_energy_out"] = prob.energy(x)
         curve = spline_curve(prob.knots, prob.C(x), T)
-        if not final:
+        if stage == "screen":
             rec.update(seconds=time.perf_counter() - w0, cpu_seconds=time.process_time() - c0,
                        margin=settings.margin, screened=True)
             return OptimizedMotion(None, rec, curve)
@@ -244,10 +247,13 @@ def _optimize(drive, checker, T, options, settings, seed_motion, distances, C0, 
                 continue
         rec["certified"] = True
         rec.pop("why", None)
-        kept = _price(drive, curve, T, options)
+        if stage == "price":
+            kept = _price(drive, curve, T, options)
         break
     rec.update(seconds=time.perf_counter() - w0, cpu_seconds=time.process_time() - c0,
                margin=settings.margin)
+    if stage == "certify" and rec.get("certified"):
+        return OptimizedMotion(None, rec, curve)
     if kept is None:
         rec.setdefault("why", "no certified optimum")
         rec["kept_seed"] = True
@@ -272,24 +278,13 @@ def _judge(kept: MotionEnergy, seed_motion: MotionEnergy | None, rec: dict[str, 
     return OptimizedMotion(kept, rec, curve)
 
 
-def certify_curve(drive: Drive, checker: Any, curve: ViaSpline, options: Any,
-                  seed_motion: MotionEnergy | None = None) -> OptimizedMotion:
-    """A solved curve (a screening solve's) kept as it is: sampled, certified by the
-    Bernstein boxes (§9c) and simulated at its duration, and kept when feasible and
+def price_curve(drive: Drive, curve: ViaSpline, options: Any,
+                seed_motion: MotionEnergy | None = None) -> OptimizedMotion:
+    """A certified curve simulated at its duration (RK4, §3) and kept when feasible and
     cheaper than ``seed_motion`` (docs/design.md §9g)."""
     w0, c0 = time.perf_counter(), time.process_time()
     rec: dict[str, Any] = {"duration": float(curve.unit_duration),
-                           "control_points": int(curve.spline.c.shape[0])}
-    if checker is not None:
-        fail = _sampled_failure(checker, curve)
-        if fail is None:
-            fail = first_failure(checker, curve, options.resolution)
-        if fail is not None:
-            rec.update(certified=False, kept_seed=True, why=f"not certified free at "
-                       f"t = {fail:.3f} s", cpu_seconds=time.process_time() - c0,
-                       seconds=time.perf_counter() - w0)
-            return OptimizedMotion(None, rec, curve)
-    rec["certified"] = True
+                           "control_points": int(curve.spline.c.shape[0]), "certified": True}
     kept = _price(drive, curve, float(curve.unit_duration), options)
     rec.update(cpu_seconds=time.process_time() - c0, seconds=time.perf_counter() - w0)
     return _judge(kept, seed_motion, rec, curve)
@@ -324,7 +319,7 @@ def optimize_seeds(
     for name, curve, T, me in seeds:
         out = optimize_curve(drive, checker, curve, T, options, seed_motion=me,
                              settings=replace(settings, budget=int(settings.screen)),
-                             distances=distances, final=False)
+                             distances=distances, stage="screen")
         runs.append({"seed": name, "seed_execution": None if me is None else me.execution,
                      **out.record})
         energy = out.record.get("screen_energy_out", np.nan)
@@ -338,9 +333,10 @@ def optimize_seeds(
                                             "cpu_seconds": time.process_time() - c0})
     energy, _, name, coarse, me = min(screened)
     T = float(coarse.unit_duration)
-    # on to convergence on its own polygon (a restart), then on the finer spline
+    # on to convergence on its own polygon (a restart) and certified, then on the finer
+    # spline, certified and simulated
     more = optimize_curve(drive, checker, coarse, T, options, seed_motion=me,
-                          distances=distances, final=False, settings=settings)
+                          distances=distances, stage="certify", settings=settings)
     coarse = more.curve or coarse
     n_c = int(coarse.spline.c.shape[0]) + int(settings.polish_points)
     out = optimize_curve(drive, checker, coarse, T, options, seed_motion=me,
@@ -348,8 +344,8 @@ def optimize_seeds(
                          settings=replace(settings, budget=int(settings.polish),
                                           control_points=n_c))
     solves = [more.record, out.record]
-    if out.motion is None:  # the finer solve was not kept: the coarse curve as it is
-        out = certify_curve(drive, checker, coarse, options, me)
+    if out.motion is None and more.record.get("certified"):  # the certified coarse curve
+        out = price_curve(drive, coarse, options, me)
         solves.append(out.record)
     rec = {**out.record, "seed": name, "solves": solves, "runs": runs,
            "cpu_seconds": time.process_time() - c0}

@@ -146,6 +146,7 @@ class Problem:
         self.vlim, self.elim = joint_limits(drive)
         self.supply = drive.supply
         self._cache: dict[str, Any] = {}
+        self._rows: tuple[np.ndarray, np.ndarray] | None = None  # collision rows' layout
         self.active: list[np.ndarray] = [np.zeros(0, np.int64)] * self.tau_c.size
         self.effort_rows = np.zeros((0, 2), np.int64)
         self.velocity_rows = np.zeros((0, 2), np.int64)
@@ -328,6 +329,7 @@ class Problem:
         self.active = self.active + [np.flatnonzero(d[b] < self.s.activation).astype(np.int64)
                                      for b in bad]
         self._cache.pop("collision", None)
+        self._rows = None
         return int(bad.size)
 
     def choose_pairs(self, x: np.ndarray) -> int:
@@ -347,6 +349,7 @@ class Problem:
                 self.active[s] = np.union1d(self.active[s], new).astype(np.int64)
                 added += int(new.size)
         self._cache.pop("collision", None)
+        self._rows = None
         return added
 
     def _collision(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -356,12 +359,14 @@ class Problem:
             return c[1], c[2]
         Q = self.Bc @ self.C(x)
         dval, dq = self.dist.distances_and_gradients(Q, self.active)
-        owner = np.concatenate([np.full(len(a), s) for s, a in enumerate(self.active)]
-                               ).astype(np.int64) if dval.size else np.zeros(0, np.int64)
-        cols = np.concatenate(self.active) if dval.size else np.zeros(0, np.int64)
-        g = dval - self.dist.margins[cols] - self.s.margin
-        Bf = self.Bc[:, 3:-3]
-        J = (Bf[owner][:, :, None] * dq[:, None, :]).reshape(len(dval), -1)
+        if self._rows is None:  # the rows' layout: changes only with the active set
+            owner = np.concatenate([np.full(len(a), s) for s, a in enumerate(self.active)]
+                                   ).astype(np.int64) if dval.size else np.zeros(0, np.int64)
+            cols = np.concatenate(self.active) if dval.size else np.zeros(0, np.int64)
+            self._rows = (self.dist.margins[cols], self.Bc[:, 3:-3][owner][:, :, None])
+        margins, basis_rows = self._rows
+        g = dval - margins - self.s.margin
+        J = (basis_rows * dq[:, None, :]).reshape(len(dval), -1)
         self._cache["collision"] = (key, g, J)
         return g, J
 

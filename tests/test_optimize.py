@@ -161,6 +161,60 @@ def test_run_motion_is_optimised_certified_and_resimulated(quickstart):
     assert m.velocity_ratio <= 1.0 and m.effort_ratio <= 1.0
 
 
+def test_seeds_are_screened_and_only_the_least_screen_energy_is_finished(quickstart):
+    """§9g: every seed gets one screening solve of at most ``screen`` iterations, neither
+    certified nor simulated; the seed of least screen energy, and only it, is finished: on
+    to convergence on its own polygon (certified, not simulated), then on a spline of
+    ``polish_points`` more control points, certified and simulated to the energy
+    returned."""
+    scn, checker, plan = quickstart
+    opt = plan._parts.motion.refined.optimization
+    settings = O.OptimizeSettings()
+    runs = opt["runs"]
+    assert len(runs) >= 2  # quickstart: the energy optimum and the shortest path
+    for r in runs:
+        assert r["screened"] and r["iterations"] <= settings.screen
+        assert "energy" not in r and "certified" not in r
+    best = min(runs, key=lambda r: r["screen_energy_out"])
+    assert opt["seed"] == best["seed"]
+    assert [r["screen_energy_out"] for r in runs].count(best["screen_energy_out"]) == 1
+    cont, fine = opt["solves"][:2]
+    assert cont["certified"] is True and "energy" not in cont
+    assert cont["control_points"] == best["control_points"]
+    assert fine["control_points"] == cont["control_points"] + settings.polish_points
+    assert plan.motion.curve.spline.c.shape[0] == fine["control_points"]
+    assert fine["energy"] == pytest.approx(plan.motion.total_energy, rel=1e-12)
+
+
+def test_a_refused_finer_solve_falls_back_on_the_certified_coarse_curve(quickstart,
+                                                                        monkeypatch):
+    """When the finer solve gives nothing, the certified coarse curve is simulated and
+    returned (not the seed): densely free, its energy a recorded re-run's, below the
+    seed's."""
+    scn, checker, plan = quickstart
+    drive = scn.drive()
+    seed = plan.motion.alternative  # the seed's own motion
+    real = O.optimize_curve
+
+    def no_finer(*args, settings=None, **kw):
+        if settings is not None and settings.control_points:
+            return O.OptimizedMotion(None, {"kept_seed": True, "why": "refused by the test"})
+        return real(*args, settings=settings, **kw)
+
+    monkeypatch.setattr(O, "optimize_curve", no_finer)
+    name, out = O.optimize_seeds(drive, checker, [("seed", O.seed_curve(drive, seed),
+                                                   seed.duration, seed)], scn.options)
+    assert name == "seed" and out.motion is not None
+    cont, refused, priced = out.record["solves"]
+    assert refused["why"] == "refused by the test" and cont["certified"] is True
+    m = out.motion
+    assert m.curve.spline.c.shape[0] == cont["control_points"]
+    assert priced["energy"] == m.total_energy < seed.total_energy
+    series = mp.motion_series(drive, m, scn.options.dt)
+    np.testing.assert_allclose(series["energy_t"][-1], m.energy_per_joint, rtol=1e-9)
+    assert checker.is_free_batch(m.curve.spline(np.linspace(0.0, m.duration, 20000))).all()
+
+
 def test_certificate_rejects_what_sparse_samples_miss(quickstart, monkeypatch):
     """With two collision samples and a 1 cm activation the optimum cuts the block
     between them (measured: 7.5 J, colliding). With the cheap checks disabled only the

@@ -65,6 +65,9 @@ class OptimizedMotion:
 
 
 # ----------------------------------------------------------------------------- solve
+#: The solver message of a solve stopped by ``OptimizeSettings.cpu_limit``.
+CPU_LIMIT = "CPU limit reached"
+
 #: A row below −this (m for distances, rad/s, N·m) makes an iterate infeasible for
 #: :func:`_solve`'s record of the cheapest feasible one.
 FEASIBLE = 1e-4
@@ -103,7 +106,7 @@ def _solve(prob: Problem, x: np.ndarray, settings: OptimizeSettings,
                 best[:] = [prob.energy(z), np.array(z, float)]
 
         if time.process_time() > deadline:
-            status, msg = 9, "CPU limit reached"
+            status, msg = 9, CPU_LIMIT
             break
         if iters >= iterations:
             status, msg = 9, "iteration budget used up"
@@ -302,11 +305,13 @@ def optimize_seeds(
     """Optimise from several seeds (name, curve, duration s, its simulated motion or None),
     spending the solves where they pay (docs/design.md §9g): each seed gets a screening
     solve of ``settings.screen`` SLSQP iterations on its own spline (neither certified nor
-    simulated); the one of least screen energy goes on to convergence on its own control
+    simulated); the one of least screen energy (a solve whose QP subproblem failed after
+    those that did not) goes on to convergence on its own control
     polygon (fresh SLSQP models, ``settings.budget`` iterations), then is solved once more
     on a finer spline (``settings.polish_points`` more control points per joint,
     ``settings.polish`` iterations), certified and simulated; when that is not kept, the
-    converged coarse curve is certified and simulated instead. Returns the seed's name
+    converged coarse curve is certified and simulated instead; when neither is, the seed
+    of next least screen energy is finished the same way. Returns the seed's name
     (None: no optimum kept) and the outcome (``.motion`` None: the seed is kept,
     ``record["why"]`` says why; ``record["runs"]``: the screening solves,
     ``record["solves"]``: the finishing ones). ``on_seed(name)`` is called after each
@@ -324,33 +329,54 @@ def optimize_seeds(
                      **out.record})
         energy = out.record.get("screen_energy_out", np.nan)
         if out.curve is not None and math.isfinite(energy):
-            screened.append((energy, len(screened), name, out.curve, me))
+            # a solve whose QP subproblem failed (or that met the CPU guard) ranks after the
+            # healthy ones: on the Panda's shared bus such a seed screened cheapest, then
+            # spent the 6 s CPU guard on an uncertifiable continuation (SLSQP at 150 ms
+            # an iteration)
+            failed = (out.record.get("solver_status") not in (0, 9)
+                      or out.record.get("solver_message") == CPU_LIMIT)
+            screened.append((failed, energy, len(screened), name, out.curve, me))
         if on_seed is not None:
             on_seed(name)
     if not screened:
         why = "; ".join(f"{r['seed']}: {r.get('why', 'no solve')}" for r in runs)
         return None, OptimizedMotion(None, {"kept_seed": True, "why": why, "runs": runs,
                                             "cpu_seconds": time.process_time() - c0})
-    energy, _, name, coarse, me = min(screened)
+    solves: list[dict[str, Any]] = []
+    for *_, name, coarse, me in sorted(screened):  # the next when one gives nothing
+        out = _finish(drive, checker, coarse, options, settings, me, distances, solves, name)
+        if out.motion is not None:
+            break
+    rec = {**out.record, "seed": name, "solves": solves, "runs": runs,
+           "cpu_seconds": time.process_time() - c0}
+    return (name if out.motion is not None else None), OptimizedMotion(out.motion, rec,
+                                                                       out.curve)
+
+
+def _finish(drive: Drive, checker: Any, coarse: ViaSpline, options: Any,
+            settings: OptimizeSettings, me: MotionEnergy | None, distances: Any,
+            solves: list[dict[str, Any]], name: str) -> OptimizedMotion:
+    """One screened seed finished (:func:`optimize_seeds`): on to convergence on its own
+    polygon (a restart) and certified, then on the finer spline, certified and simulated;
+    else the certified coarse curve simulated; nothing when the coarse curve is not
+    certified. Each solve's record goes into ``solves``."""
     T = float(coarse.unit_duration)
-    # on to convergence on its own polygon (a restart) and certified, then on the finer
-    # spline, certified and simulated
     more = optimize_curve(drive, checker, coarse, T, options, seed_motion=me,
                           distances=distances, stage="certify", settings=settings)
+    solves.append({"seed": name, **more.record})
+    if not more.record.get("certified"):  # the finer solve would start where it failed
+        return OptimizedMotion(None, more.record, more.curve)
     coarse = more.curve or coarse
     n_c = int(coarse.spline.c.shape[0]) + int(settings.polish_points)
     out = optimize_curve(drive, checker, coarse, T, options, seed_motion=me,
                          distances=distances,
                          settings=replace(settings, budget=int(settings.polish),
                                           control_points=n_c))
-    solves = [more.record, out.record]
-    if out.motion is None and more.record.get("certified"):  # the certified coarse curve
+    solves.append({"seed": name, **out.record})
+    if out.motion is None:  # the certified coarse curve
         out = price_curve(drive, coarse, options, me)
-        solves.append(out.record)
-    rec = {**out.record, "seed": name, "solves": solves, "runs": runs,
-           "cpu_seconds": time.process_time() - c0}
-    return (name if out.motion is not None else None), OptimizedMotion(out.motion, rec,
-                                                                       out.curve)
+        solves.append({"seed": name, **out.record})
+    return out
 
 
 def _sampled_failure(checker: Any, curve: ViaSpline, samples: int = 400) -> float | None:

@@ -259,8 +259,9 @@ def _optimize_best(drive: Drive, checker: Any, options: Any, motion: MotionOptio
     name and ``motion.optimization``."""
     order = sorted(feasible, key=lambda n: by_name[n].total_energy)
     cheapest = by_name[order[0]].total_energy
-    order = [n for n in order if by_name[n].total_energy <= SEED_FACTOR * cheapest
-             ][: motion.seeds]
+    # within SEED_FACTOR of the cheapest; with regeneration an energy can be ≤ 0 (§3i)
+    bar = cheapest + (SEED_FACTOR - 1.0) * abs(cheapest)
+    order = [n for n in order if by_name[n].total_energy <= bar][: motion.seeds]
     seeds = [(n, seed_curve(drive, by_name[n]), by_name[n].duration, by_name[n])
              for n in order]
     shown.set_postfix_str(order[0])

@@ -215,6 +215,55 @@ def test_a_refused_finer_solve_falls_back_on_the_certified_coarse_curve(quicksta
     assert checker.is_free_batch(m.curve.spline(np.linspace(0.0, m.duration, 20000))).all()
 
 
+def test_seeds_within_the_factor_also_below_zero():
+    """With regeneration a candidate's energy can be negative (pick_place at η = 0.6):
+    the seeds are those within (SEED_FACTOR − 1)·|cheapest| above the cheapest, the
+    cheapest always among them (SEED_FACTOR × cheapest excluded every one of them)."""
+    from mpd_pin.motion.refine import SEED_FACTOR, choose_seeds
+
+    assert SEED_FACTOR == 1.4
+    assert choose_seeds({"a": -5.0, "b": -4.5, "c": -2.9, "d": 3.0}, 3) == ["a", "b"]
+    assert choose_seeds({"a": 10.0, "b": 13.9, "c": 14.1}, 3) == ["a", "b"]
+    assert choose_seeds({"a": 10.0, "b": 11.0, "c": 12.0}, 2) == ["a", "b"]
+    assert choose_seeds({"a": 0.0, "b": 1e-9}, 3) == ["a"]
+
+
+def test_a_failed_screening_ranks_last_and_a_seed_that_gives_nothing_passes_on(
+        quickstart, monkeypatch):
+    """A screening solve whose QP subproblem failed ranks after the healthy ones even with
+    the least screen energy; and when finishing a seed gives nothing, the next seed is
+    finished."""
+    scn, checker, plan = quickstart
+    drive = scn.drive()
+    seed = plan.motion.alternative
+    curve = O.seed_curve(drive, seed)
+    real = O.optimize_curve
+
+    def screen(*args, stage="price", **kw):
+        out = real(*args, stage=stage, **kw)
+        if stage == "screen" and kw["seed_motion"] is failing:
+            out.record.update(solver_status=3, screen_energy_out=0.0)  # cheapest, failed
+        return out
+
+    failing = type(seed)(**{**seed.__dict__})  # the same motion, another identity
+    monkeypatch.setattr(O, "optimize_curve", screen)
+    seeds = [("failed", curve, seed.duration, failing), ("healthy", curve, seed.duration, seed)]
+    name, out = O.optimize_seeds(drive, checker, seeds, scn.options)
+    assert name == "healthy" and out.motion is not None
+    assert [r["seed"] for r in out.record["solves"]][0] == "healthy"
+    # finishing the first seed gives nothing: the second is finished
+    real_finish = O._finish
+
+    def nothing_for_healthy(*args, **kw):
+        if args[-1] == "healthy":
+            return O.OptimizedMotion(None, {"kept_seed": True, "why": "refused by the test"})
+        return real_finish(*args, **kw)
+
+    monkeypatch.setattr(O, "_finish", nothing_for_healthy)
+    name, out = O.optimize_seeds(drive, checker, seeds, scn.options)
+    assert name == "failed" and out.motion is not None
+
+
 def test_certificate_rejects_what_sparse_samples_miss(quickstart, monkeypatch):
     """With two collision samples and a 1 cm activation the optimum cuts the block
     between them (measured: 7.5 J, colliding). With the cheap checks disabled only the

@@ -26,7 +26,8 @@ from .optimize import optimize_seeds, seed_curve
 from .relax import relax_path
 from .shortcut import shortcut_path
 
-__all__ = ["MotionOptions", "NoFeasibleMotion", "RefinedMotion", "refine_candidates"]
+__all__ = ["MotionOptions", "NoFeasibleMotion", "RefinedMotion", "choose_seeds",
+           "refine_candidates"]
 
 
 class NoFeasibleMotion(ValueError):
@@ -249,6 +250,17 @@ SEED_FACTOR = 1.4
 OPTIMIZED = "optimised"
 
 
+def choose_seeds(energies: dict[str, float], count: int) -> list[str]:
+    """The candidates that seed the optimisation (docs/design.md §9g): the ``count``
+    cheapest of ``energies`` (name → J), cheapest first, within SEED_FACTOR of the
+    cheapest, measured as (SEED_FACTOR − 1)·|cheapest| above it: with regeneration an
+    energy can be ≤ 0 (§3i), where SEED_FACTOR × cheapest would exclude them all."""
+    order = sorted(energies, key=energies.__getitem__)
+    cheapest = energies[order[0]]
+    bar = cheapest + (SEED_FACTOR - 1.0) * abs(cheapest)
+    return [n for n in order if energies[n] <= bar][: int(count)]
+
+
 def _optimize_best(drive: Drive, checker: Any, options: Any, motion: MotionOptions,
                    by_name: dict[str, MotionEnergy], feasible: list[str], best: str,
                    shown) -> tuple[str, dict[str, Any]]:
@@ -257,11 +269,7 @@ def _optimize_best(drive: Drive, checker: Any, options: Any, motion: MotionOptio
     polyline; :func:`~mpd_pin.motion.optimize.optimize_seeds`); the certified, simulated
     result, when it beats its seed, becomes ``by_name[OPTIMIZED]``. Returns the winner's
     name and ``motion.optimization``."""
-    order = sorted(feasible, key=lambda n: by_name[n].total_energy)
-    cheapest = by_name[order[0]].total_energy
-    # within SEED_FACTOR of the cheapest; with regeneration an energy can be ≤ 0 (§3i)
-    bar = cheapest + (SEED_FACTOR - 1.0) * abs(cheapest)
-    order = [n for n in order if by_name[n].total_energy <= bar][: motion.seeds]
+    order = choose_seeds({n: by_name[n].total_energy for n in feasible}, motion.seeds)
     seeds = [(n, seed_curve(drive, by_name[n]), by_name[n].duration, by_name[n])
              for n in order]
     shown.set_postfix_str(order[0])

@@ -264,6 +264,37 @@ def test_a_failed_screening_ranks_last_and_a_seed_that_gives_nothing_passes_on(
     assert name == "failed" and out.motion is not None
 
 
+def test_an_optimum_must_beat_the_cheapest_seed_and_hopeless_screens_are_not_finished(
+        quickstart):
+    """The optimum returned is cheaper than every seed's simulated motion, not only its
+    own seed's; and a screened optimum more than PROMISING above the cheapest seed is not
+    finished. A second seed claims (falsely) an energy between the real seed's screen
+    (less 5 %) and its optimum: the optimum beats its own seed but not the claim, so it is
+    not kept; with a claim far below every screen nothing is finished at all."""
+    scn, checker, plan = quickstart
+    drive = scn.drive()
+    seed = plan.motion.alternative
+    curve = O.seed_curve(drive, seed)
+    name, out = O.optimize_seeds(drive, checker, [("real", curve, seed.duration, seed)],
+                                 scn.options)
+    assert name == "real" and out.motion.total_energy < seed.total_energy
+    screen, final = out.record["runs"][0]["screen_energy_out"], out.motion.total_energy
+    assert screen / (1 + O.PROMISING) < final
+    claim = type(seed)(**{**seed.__dict__})
+    claim.total_energy = 0.5 * (screen / (1 + O.PROMISING) + final)
+    seeds = [("real", curve, seed.duration, seed), ("claim", curve, seed.duration, claim)]
+    name, out = O.optimize_seeds(drive, checker, seeds, scn.options)
+    assert name is None and out.motion is None
+    assert {r["seed"] for r in out.record["solves"]} == {"real", "claim"}
+    real = [r for r in out.record["solves"] if r["seed"] == "real"]
+    assert "no less than the cheapest seed's" in real[-1]["why"]
+    # every screen far above the cheapest seed: nothing is finished
+    claim.total_energy = 0.5 * screen
+    name, out = O.optimize_seeds(drive, checker, seeds, scn.options)
+    assert name is None and out.record["solves"] == []
+    assert "no screened optimum within 5%" in out.record["why"]
+
+
 def test_certificate_rejects_what_sparse_samples_miss(quickstart, monkeypatch):
     """With two collision samples and a 1 cm activation the optimum cuts the block
     between them (measured: 7.5 J, colliding). With the cheap checks disabled only the

@@ -312,9 +312,8 @@ def optimize_seeds(
     spending the solves where they pay (docs/design.md §9g): each seed gets a screening
     solve of ``settings.screen`` SLSQP iterations on its own spline (neither certified nor
     simulated); the one of least screen energy (a solve whose QP subproblem failed after
-    those that did not) goes on to convergence on its own control
-    polygon (fresh SLSQP models, ``settings.budget`` iterations), then is solved once more
-    on a finer spline (``settings.polish_points`` more control points per joint,
+    those that did not) goes on to convergence on its own control polygon (fresh SLSQP
+    models, ``settings.budget`` iterations), then is solved once more on a finer spline (``settings.polish_points`` more control points per joint,
     ``settings.polish`` iterations), certified and simulated; when that is not kept, the
     converged coarse curve is certified and simulated instead; when neither is kept, or
     the result is no cheaper than the cheapest seed, the seed of next least screen energy

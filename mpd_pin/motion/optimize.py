@@ -313,8 +313,9 @@ def optimize_seeds(
     solve of ``settings.screen`` SLSQP iterations on its own spline (neither certified nor
     simulated); the one of least screen energy (a solve whose QP subproblem failed after
     those that did not) goes on to convergence on its own control polygon (fresh SLSQP
-    models, ``settings.budget`` iterations), then is solved once more on a finer spline (``settings.polish_points`` more control points per joint,
-    ``settings.polish`` iterations), certified and simulated; when that is not kept, the
+    models, ``settings.budget`` iterations), then is solved once more on a finer spline
+    (``settings.polish_points`` more control points per joint, ``settings.polish``
+    iterations), certified and simulated; when that is not kept, the
     converged coarse curve is certified and simulated instead; when neither is kept, or
     the result is no cheaper than the cheapest seed, the seed of next least screen energy
     is finished the same way. A seed whose screen energy lies more than :data:`PROMISING`

@@ -395,7 +395,8 @@ def _finish(drive: Drive, checker: Any, coarse: ViaSpline, options: Any,
     out = optimize_curve(drive, checker, coarse, T, options, seed_motion=me,
                          distances=distances,
                          settings=replace(settings, budget=int(settings.polish),
-                                          control_points=n_c))
+                                          control_points=n_c,
+                                          tolerance=0.1 * settings.tolerance))
     solves.append({"seed": name, **out.record})
     if out.motion is None:  # the certified coarse curve
         out = price_curve(drive, coarse, options, me)

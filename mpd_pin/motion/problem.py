@@ -41,9 +41,10 @@ class OptimizeSettings:
     machine's speed or load); screen: iterations of each seed's screening solve when
     several seeds compete (:func:`~mpd_pin.motion.optimize.optimize_seeds`); cpu_limit:
     CPU seconds after which a solve stops regardless, a guard against pathological solves
-    only (never reached on the bench's queries); polish: iterations of the last solve of
+    (reached only by solves that fail anyway: on the Panda's shared bus, SLSQP at 150 ms an
+    iteration; such a screening solve ranks last); polish: iterations of the last solve of
     the best screened seed, with a fresh SLSQP model, on ``polish_points`` more control
-    points per joint.
+    points per joint and at a tenth of ``tolerance``.
     """
 
     control_points: int = 0

@@ -295,6 +295,11 @@ def test_an_optimum_must_beat_the_cheapest_seed_and_hopeless_screens_are_not_fin
     assert "no screened optimum within 5%" in out.record["why"]
 
 
+def test_an_unknown_stage_is_one_clear_error():
+    with pytest.raises(ValueError, match="stage must be one of price, certify, screen"):
+        O.optimize_curve(None, None, None, 1.0, None, stage="polish")
+
+
 def test_certificate_rejects_what_sparse_samples_miss(quickstart, monkeypatch):
     """With two collision samples and a 1 cm activation the optimum cuts the block
     between them (measured: 7.5 J, colliding). With the cheap checks disabled only the

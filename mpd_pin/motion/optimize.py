@@ -71,6 +71,9 @@ class OptimizedMotion:
 #: start (an ``ur10_limited`` query: 169 → 335 J against a 166 J seed).
 PROMISING = 0.05
 
+#: What :func:`optimize_curve` does after its solve (its ``stage``).
+STAGES = ("price", "certify", "screen")
+
 #: The solver message of a solve stopped by ``OptimizeSettings.cpu_limit``.
 CPU_LIMIT = "CPU limit reached"
 
@@ -180,6 +183,8 @@ def optimize_curve(
     screen energy ``record["screen_energy_out"]`` (J) only, neither certified nor
     simulated).
     Never raises for a failed solve: the seed is kept and the record says why."""
+    if stage not in STAGES:
+        raise ValueError(f"stage must be one of {', '.join(STAGES)}, got {stage!r}")
     settings = settings or OptimizeSettings()
     w0, c0 = time.perf_counter(), time.process_time()
     dt = float(options.dt)

@@ -274,7 +274,7 @@ def _optimize_best(drive: Drive, checker: Any, options: Any, motion: MotionOptio
              for n in order]
     shown.set_postfix_str(order[0])
     name, out = optimize_seeds(drive, checker, seeds, options,
-                               on_seed=lambda n: shown.update(1))
+                               on_seed=lambda n: (shown.set_postfix_str(n), shown.update(1)))
     rec = dict(out.record)
     if out.motion is None:
         rec.update(kept_seed=True, seed=best, energy_before=by_name[best].total_energy,

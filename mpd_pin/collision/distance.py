@@ -91,6 +91,9 @@ class PairDistances:
                 if k > 0:
                     jm = self.model.joints[k]
                     self._support[j, 0, jm.idx_v: jm.idx_v + jm.nv] = 1.0
+        # the enforced pairs' result objects, read in place after each computeDistances
+        # (the vector is never resized; indexing it anew cost a third of distances())
+        self._results = [self.gd.distanceResults[int(k)] for k in self.pairs]
         active = np.zeros(len(cps), dtype=bool)
         active[self.pairs] = True
         for k, on in enumerate(active.tolist()):
@@ -117,11 +120,10 @@ class PairDistances:
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
         out = np.empty((Q.shape[0], self.size))
         model, data, gm, gd = self.model, self.data, self.gm, self.gd
-        results = gd.distanceResults
-        pairs = self.pairs.tolist()
+        results = self._results
         for s, q in enumerate(Q):
             pin.computeDistances(model, data, gm, gd, q)  # the active (enforced) pairs
-            out[s] = [results[k].min_distance for k in pairs]
+            out[s] = [r.min_distance for r in results]
         return out
 
     def distances_and_gradients(self, Q: np.ndarray, select: list[np.ndarray]

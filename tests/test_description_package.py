@@ -278,3 +278,60 @@ def test_bad_description_packages(package, tmp_path, capsys, monkeypatch):
     assert "xacro" in err
     err = _error(tmp_path, 'builtin = "planar_2link"\nsrdf = "x.srdf"', capsys)
     assert "arm.srdf" in err
+
+
+def _visual_summary(arm: mp.Arm, q) -> list[tuple]:
+    """(name, mesh path, parent joint, world placement at q) of every visual object."""
+    data, gdata = arm.model.createData(), arm.visual_model.createData()
+    pin.forwardKinematics(arm.model, data, np.asarray(q, float))
+    pin.updateGeometryPlacements(arm.model, data, arm.visual_model, gdata)
+    return [(g.name, g.meshPath, g.parentJoint, np.round(gdata.oMg[k].homogeneous, 12).tolist())
+            for k, g in enumerate(arm.visual_model.geometryObjects)]
+
+
+def test_visual_geometry_is_built_when_first_read_and_equals_the_eager_one(package, monkeypatch):
+    """Loading an arm builds no visual geometry (only the replay draws it, docs/design.md
+    §1c); reading ``visual_model`` builds it once, equal to Pinocchio's own build of the
+    URDF's visual geometry with the locked joints removed (``pin.buildReducedModel``),
+    for a locked finger at 0.02 m and for example-robot-data's Panda (gripper locked)."""
+    import example_robot_data as erd
+
+    built = []
+    real = pin.buildGeomFromUrdfString
+
+    def spy(model, xml, kind, *rest):
+        built.append(kind)
+        return real(model, xml, kind, *rest)
+
+    monkeypatch.setattr(pin, "buildGeomFromUrdfString", spy)
+    path = package / "urdf" / "box_arm.urdf"
+    arm = mp.Arm.from_urdf(path, lock={"finger_joint": 0.02})
+    panda = mp.Arm.from_example_robot_data("panda")
+    assert pin.GeometryType.VISUAL not in built
+    q = [0.4, -0.3]
+    lazy = _visual_summary(arm, q)
+    assert built.count(pin.GeometryType.VISUAL) == 1
+    _visual_summary(arm, q)
+    assert built.count(pin.GeometryType.VISUAL) == 1  # kept
+
+    full = pin.buildModelFromUrdf(str(path))
+    visual = real(full, path.read_text(), pin.GeometryType.VISUAL, None, [str(package.parent)])
+    q_full = pin.neutral(full)
+    q_full[full.joints[full.getJointId("finger_joint")].idx_q] = 0.02
+    _, (reduced,) = pin.buildReducedModel(full, [visual], [full.getJointId("finger_joint")],
+                                          q_full)
+    eager = mp.Arm(model=arm.model, collision_model=arm.collision_model, visual_model=reduced)
+    assert lazy == _visual_summary(eager, q)
+    assert {Path(g[1]).name for g in lazy} == {"link1.stl", "link2.stl", "finger.stl"}
+
+    robot = erd.load("panda")  # its own loader: 7 joints, 2 fingers at the reference posture
+    q7 = np.array([0.1, -0.5, 0.3, -2.0, 0.2, 1.6, 0.7])
+    q9 = np.concatenate([q7, robot.q0[7:]])
+    ref_data, ref_g = robot.model.createData(), robot.visual_model.createData()
+    pin.forwardKinematics(robot.model, ref_data, q9)
+    pin.updateGeometryPlacements(robot.model, ref_data, robot.visual_model, ref_g)
+    ref = {g.name: np.round(ref_g.oMg[k].homogeneous, 9).tolist()
+           for k, g in enumerate(robot.visual_model.geometryObjects)}
+    got = {name: np.round(np.array(pose), 9).tolist()
+           for name, _, _, pose in _visual_summary(panda, q7)}
+    assert got.keys() == ref.keys() and got == ref

@@ -19,7 +19,7 @@ import hashlib
 import io
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -341,6 +341,44 @@ def _reduce(
     return model, list(reduced), q_ref
 
 
+class _VisualModel:
+    """The ``visual_model`` field of :class:`Arm`: as given, or built on first use by the
+    arm's ``visual_source`` (docs/design.md §1c): loading the Panda's visual meshes took
+    0.42 s of its 1.3 s, and only the replay draws them. Without either, an empty model."""
+
+    def __set_name__(self, owner, name: str) -> None:
+        self.slot = "_" + name
+
+    def __get__(self, obj, objtype=None):
+        if obj is None:
+            return None  # the field's default
+        value = obj.__dict__.get(self.slot)
+        if value is None:
+            source = obj.__dict__.get("visual_source")
+            value = source() if source is not None else pin.GeometryModel()
+            obj.__dict__[self.slot] = value
+            obj.__dict__["visual_source"] = None
+        return value
+
+    def __set__(self, obj, value) -> None:
+        obj.__dict__[self.slot] = value
+
+
+def _visual_source(full: pin.Model, xml: str, dirs: list[str], q0: np.ndarray,
+                   locked: Sequence[str]):
+    """A loader of the visual geometry of URDF ``xml`` on ``full``, with the joints
+    ``locked`` removed at ``q0`` as :func:`_reduce` removes them from the model."""
+
+    def load() -> pin.GeometryModel:
+        try:
+            visual = pin.buildGeomFromUrdfString(full, xml, pin.GeometryType.VISUAL, None, dirs)
+        except (RuntimeError, ValueError) as exc:
+            raise ValueError(f"Pinocchio could not load the visual geometry: {exc}") from None
+        return _reduce(full, [visual], q0, locked)[1][0]
+
+    return load
+
+
 @dataclass(eq=False)
 class Arm:
     """A fixed-base arm: Pinocchio model, collision and visual geometry, joint limits.
@@ -351,7 +389,8 @@ class Arm:
 
     model: pin.Model
     collision_model: pin.GeometryModel
-    visual_model: pin.GeometryModel
+    #: the visual geometry (built on first use when the arm has a ``visual_source``)
+    visual_model: pin.GeometryModel | None = _VisualModel()
     name: str = "arm"
     srdf_path: str | None = None
     urdf_xml: str | None = None
@@ -361,6 +400,8 @@ class Arm:
     continuous_joints: tuple[str, ...] = ()
     #: joints locked out of the model: name -> value (rad or m), as reported in result.json
     locked_joints: dict[str, float] = field(default_factory=dict)
+    #: builds ``visual_model`` when it is first read (None: given, or none)
+    visual_source: Callable[[], pin.GeometryModel] | None = field(default=None, repr=False)
     data: pin.Data = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -436,7 +477,6 @@ class Arm:
             collision = pin.buildGeomFromUrdfString(
                 model, xml, pin.GeometryType.COLLISION, None, dirs
             )
-            visual = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.VISUAL, None, dirs)
         except (RuntimeError, ValueError) as exc:
             raise ValueError(f"Pinocchio could not load {where}: {exc}") from None
         if srdf_path is not None:
@@ -455,12 +495,13 @@ class Arm:
         for joint, value in locked.items():
             q0[model.joints[model.getJointId(joint)].idx_q] = value
         q_ref = None
+        visual = _visual_source(model, xml, dirs, q0, list(locked))
         if locked:
-            model, (collision, visual), _ = _reduce(model, [collision, visual], q0, list(locked))
+            model, (collision,), _ = _reduce(model, [collision], q0, list(locked))
         return cls(
             model=model,
             collision_model=collision,
-            visual_model=visual,
+            visual_source=visual,
             name=name or model.name or "arm",
             srdf_path=srdf_path,
             urdf_xml=xml,
@@ -524,15 +565,17 @@ class Arm:
             n for n in names[1:]
             if any(k in n.lower() for k in GRIPPER_KEYWORDS) or n in lock_at
         ]
-        model, (collision, visual), q_ref = _reduce(
-            full, [base.collision_model, base.visual_model], q0, to_lock
-        )
+        model, (collision,), q_ref = _reduce(full, [base.collision_model], q0, to_lock)
         locked = {n: float(q0[full.joints[full.getJointId(n)].idx_q]) for n in to_lock}
         model.name = name
+
+        def visual() -> pin.GeometryModel:  # the base's, reduced as the model is
+            return _reduce(full, [base.visual_model], q0, to_lock)[1][0]
+
         return cls(
             model=model,
             collision_model=collision,
-            visual_model=visual,
+            visual_source=visual,
             name=name,
             srdf_path=base.srdf_path,
             urdf_xml=base.urdf_xml,  # the full URDF; with locked_joints it rebuilds model

@@ -28,7 +28,8 @@ class OptimizeSettings:
 
     control_points: per joint (0: from the seed, 16–24); samples: Simpson intervals of the
     energy integral (even); collision_samples: times the distances are constrained at
-    (0: 4 per knot span); margin: clearance (m) beyond each pair's own margin;
+    (0: 4 per knot span); margin: clearance (m) beyond each pair's own margin (less for
+    a pair where the start or the goal leaves less: ``Problem.clearance``);
     activation: pairs closer than this (m) at a collision sample are constrained, at most
     ``pairs_per_sample`` (the closest) each time a round starts;
     velocity_fraction, effort_fraction: of the URDF limits; max_iterations: SLSQP
@@ -145,6 +146,15 @@ class Problem:
         self.tau_c = np.linspace(0.0, 1.0, n_col + 2)[1:-1]
         self.Bc = basis(self.knots, n_c, self.tau_c, 0)
         self.vlim, self.elim = joint_limits(drive)
+        #: each pair's clearance (m) beyond its own margin: ``margin``, or what the start or
+        #: the goal leaves where that is less (≥ 0): both are fixed, and a row that no
+        #: curve can meet kept SLSQP from ever converging (the UR5's base, 7 mm above its
+        #: table, at every collision sample; docs/design.md §9g)
+        P = distances.size if distances is not None else 0
+        self.clearance = np.full(P, float(settings.margin))
+        if P:
+            ends = distances.distances(C0[[0, -1]]) - distances.margins[None, :]
+            self.clearance = np.clip(ends.min(axis=0), 0.0, float(settings.margin))
         self.supply = drive.supply
         self._cache: dict[str, Any] = {}
         self._rows: tuple[np.ndarray, np.ndarray] | None = None  # collision rows' layout
@@ -312,8 +322,8 @@ class Problem:
         tau = np.linspace(0.0, 1.0, count)[1:-1]
         Q = basis(self.knots, self.n_c, tau, 0) @ self.C(x)
         d = self.dist.distances(Q) - self.dist.margins[None, :]
-        low = d.min(axis=1)
-        close = low < 0.5 * self.s.margin  # at an active constraint d = margin at the samples
+        low = (d - 0.5 * self.clearance[None, :]).min(axis=1)
+        close = low < 0.0  # at an active row d = its clearance at the samples
         if not close.any():
             return 0
         # per run of close times: its closest time and up to 6 more spread over the run
@@ -364,9 +374,10 @@ class Problem:
             owner = np.concatenate([np.full(len(a), s) for s, a in enumerate(self.active)]
                                    ).astype(np.int64) if dval.size else np.zeros(0, np.int64)
             cols = np.concatenate(self.active) if dval.size else np.zeros(0, np.int64)
-            self._rows = (self.dist.margins[cols], self.Bc[:, 3:-3][owner][:, :, None])
-        margins, basis_rows = self._rows
-        g = dval - margins - self.s.margin
+            self._rows = (self.dist.margins[cols] + self.clearance[cols],
+                          self.Bc[:, 3:-3][owner][:, :, None])
+        required, basis_rows = self._rows
+        g = dval - required
         J = (basis_rows * dq[:, None, :]).reshape(len(dval), -1)
         self._cache["collision"] = (key, g, J)
         return g, J

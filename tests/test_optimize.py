@@ -8,6 +8,8 @@ scipy's linprog for the absence of a feasible first-order descent direction.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy.interpolate import BSpline
@@ -480,3 +482,32 @@ def test_a_restart_from_the_optimum_finds_little_more(quickstart):
     assert out.record["control_points"] == m.curve.spline.c.shape[0]
     after = m.total_energy if out.motion is None else out.motion.total_energy
     assert after >= 0.98 * m.total_energy
+
+
+def test_a_round_that_rises_and_leaves_the_rows_ends_the_solve():
+    """On this UR5 query (sized motors) a seed's screening solve had a round that ended
+    2.5× above its start, 0.21 m inside an obstacle and 4.9 rad/s over a velocity limit;
+    the next round then spent 60 ms an iteration and ended as far outside. Such a round
+    ends the solve (its record says so, after that one round of 40 iterations), and the
+    motion returned is the one finished from the other seed: certified free at 4,000
+    samples, within the limits, and simulated to the energy reported."""
+    from mpd_pin.dynamics.sizing import sized_motors
+
+    scn = mp.load_scenario("ur5")
+    start = [-2.3346743070305473, -1.3689744592818953, 2.5423365089542456,
+             2.754848078577072, 2.83547294267503, -3.0673335414943517]
+    goal = [-0.9776786968526054, -0.38685686257876517, -0.6192626065435878,
+            -2.9617246746861277, -1.6023642601939736, 2.7960675653444973]
+    scn = dataclasses.replace(scn, motor=sized_motors(scn.arm), start=np.array(start),
+                              goal=np.array(goal))
+    plan = mp.plan(scn, show_progress=False)
+    record = plan.to_dict()["motion"]["optimization"]
+    diverged = [r for r in record["runs"] if r.get("solver_message") == O.DIVERGED]
+    assert len(diverged) == 1 and diverged[0]["iterations"] == 40, record["runs"]
+    assert record["seed"] != diverged[0]["seed"]
+    m = plan.motion
+    assert m.curve is not None and m.feasible
+    t = np.linspace(0.0, m.curve.unit_duration, 4000)
+    assert mp.CollisionChecker(scn.arm, scn.world).is_free_batch(m.curve.spline(t)).all()
+    again = O._price(scn.drive(), m.curve, m.duration, scn.options)
+    assert again.feasible and again.total_energy == pytest.approx(m.total_energy, rel=1e-12)

@@ -82,12 +82,23 @@ CPU_LIMIT = "CPU limit reached"
 FEASIBLE = 1e-4
 
 
+#: The solver message of a solve stopped after a round that rose and left the rows.
+DIVERGED = "a round rose and left the rows"
+
+
+def _worst_row(cons: list[dict], z: np.ndarray) -> float:
+    """The smallest row of the constraints ``cons`` at ``z`` (m, rad/s or N·m; inf: none)."""
+    return min((float(np.min(c["fun"](z), initial=np.inf)) for c in cons), default=np.inf)
+
+
 def _solve(prob: Problem, x: np.ndarray, settings: OptimizeSettings,
            deadline: float = np.inf, iterations: int = 10**9) -> tuple[np.ndarray, dict]:
     """Rounds of SLSQP from ``x``. Each round adds the (sample, pair) rows, velocity and
     effort rows its start point comes near; the solve ends when a round converges and its
     end point adds no collision row, or after ``iterations`` SLSQP iterations in all (or
-    past the CPU time ``deadline``). Returns the last iterate and counters."""
+    past the CPU time ``deadline``), or after a round that rose in energy and ended further
+    outside its rows than it started (:data:`DIVERGED`). Returns the last iterate and
+    counters."""
     iters, status, msg = 0, 0, ""
     best: list = [np.inf, None]  # energy, iterate
     for _ in range(max(1, int(settings.rounds))):
@@ -109,8 +120,7 @@ def _solve(prob: Problem, x: np.ndarray, settings: OptimizeSettings,
         def keep(z, cons=cons, inside=True):  # the cheapest iterate within every row so far
             if inside and time.process_time() > deadline:
                 raise StopIteration  # SLSQP stops and returns its current iterate
-            worst = min((float(np.min(c["fun"](z), initial=np.inf)) for c in cons),
-                        default=np.inf)
+            worst = _worst_row(cons, z)
             if worst >= -FEASIBLE and prob.energy(z) < best[0]:
                 best[:] = [prob.energy(z), np.array(z, float)]
 
@@ -121,6 +131,7 @@ def _solve(prob: Problem, x: np.ndarray, settings: OptimizeSettings,
             status, msg = 9, "iteration budget used up"
             break
         keep(x, inside=False)
+        e_start, w_start = prob.energy(x), _worst_row(cons, x)
         res = minimize(lambda z, k=scale: prob.energy(z) / k, x,
                        jac=lambda z, k=scale: prob.energy_grad(z) / k, method="SLSQP",
                        bounds=prob.bounds(), constraints=cons, callback=keep,
@@ -136,6 +147,13 @@ def _solve(prob: Problem, x: np.ndarray, settings: OptimizeSettings,
             # "positive directional derivative"): its last iterate can be far worse than
             # where it started; go on from the cheapest iterate within every row instead
             x = best[1].copy()
+        elif prob.energy(x) > e_start and _worst_row(cons, x) < min(w_start, -FEASIBLE):
+            # the round rose and went further outside the rows than it started: SLSQP
+            # lost its way (an UR5 continuation round ended 2.5× above its start, 0.21 m
+            # inside an obstacle and 4.9 rad/s over a limit; the next took 2.4 CPU-s at
+            # 60 ms an iteration and ended as far outside)
+            status, msg = 9, DIVERGED
+            break
     info = {"iterations": iters, "solver_status": status, "solver_message": msg}
     if best[1] is not None and status != 0:  # stopped early: its last iterate may be outside
         x = best[1]

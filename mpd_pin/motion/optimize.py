@@ -131,6 +131,7 @@ def _solve(prob: Problem, x: np.ndarray, settings: OptimizeSettings,
             status, msg = 9, "iteration budget used up"
             break
         keep(x, inside=False)
+        x_start = x
         e_start, w_start = prob.energy(x), _worst_row(cons, x)
         res = minimize(lambda z, k=scale: prob.energy(z) / k, x,
                        jac=lambda z, k=scale: prob.energy_grad(z) / k, method="SLSQP",
@@ -152,7 +153,7 @@ def _solve(prob: Problem, x: np.ndarray, settings: OptimizeSettings,
             # lost its way (an UR5 continuation round ended 2.5× above its start, 0.21 m
             # inside an obstacle and 4.9 rad/s over a limit; the next took 2.4 CPU-s at
             # 60 ms an iteration and ended as far outside)
-            status, msg = 9, DIVERGED
+            status, msg, x = 9, DIVERGED, x_start  # better on both counts than its end
             break
     info = {"iterations": iters, "solver_status": status, "solver_message": msg}
     if best[1] is not None and status != 0:  # stopped early: its last iterate may be outside
@@ -419,7 +420,10 @@ def _finish(drive: Drive, checker: Any, coarse: ViaSpline, options: Any,
                          distances=distances,
                          settings=replace(settings, budget=int(settings.polish),
                                           control_points=n_c,
-                                          tolerance=0.1 * settings.tolerance))
+                                          tolerance=0.1 * settings.tolerance,
+                                          max_iterations=int(settings.polish_round),
+                                          rounds=-(-int(settings.polish)
+                                                   // int(settings.polish_round))))
     solves.append({"seed": name, **out.record})
     if out.motion is None:  # the certified coarse curve
         out = price_curve(drive, coarse, options, me)

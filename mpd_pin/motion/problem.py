@@ -45,7 +45,9 @@ class OptimizeSettings:
     (reached only by solves that fail anyway: on the Panda's shared bus, SLSQP at 150 ms an
     iteration; such a screening solve ranks last); polish: iterations of the last solve of
     the best screened seed, with a fresh SLSQP model, on ``polish_points`` more control
-    points per joint and at a tenth of ``tolerance``.
+    points per joint and at a tenth of ``tolerance``, in rounds of ``polish_round``
+    iterations (a round restarts SLSQP's quasi-Newton model: the finer solve's rounds of
+    40 gained 0.1 % each, and 2 rounds of 120 cost 20 % less CPU for the same energies).
     """
 
     control_points: int = 0
@@ -66,6 +68,7 @@ class OptimizeSettings:
     cpu_limit: float = 6.0
     polish: int = 240
     polish_points: int = 8
+    polish_round: int = 120
 
 
 # ----------------------------------------------------------------------------- basis

@@ -150,14 +150,16 @@ class Problem:
         self.Bc = basis(self.knots, n_c, self.tau_c, 0)
         self.vlim, self.elim = joint_limits(drive)
         #: each pair's clearance (m) beyond its own margin: ``margin``, or what the start or
-        #: the goal leaves where that is less (≥ 0): both are fixed, and a row that no
-        #: curve can meet kept SLSQP from ever converging (the UR5's base, 7 mm above its
-        #: table, at every collision sample; docs/design.md §9g)
+        #: the goal leaves where that is less: both are fixed, and a row that no curve can
+        #: meet kept SLSQP from ever converging (the UR5's base, 7 mm above its table, at
+        #: every collision sample). Below 0 where the convex hulls of a free start or goal
+        #: overlap (an ur10's forearm and wrist by 1.4 cm); the certificate then judges the
+        #: meshes themselves (docs/design.md §9g)
         P = distances.size if distances is not None else 0
         self.clearance = np.full(P, float(settings.margin))
         if P:
             ends = distances.distances(C0[[0, -1]]) - distances.margins[None, :]
-            self.clearance = np.clip(ends.min(axis=0), 0.0, float(settings.margin))
+            self.clearance = np.minimum(ends.min(axis=0), float(settings.margin))
         self.supply = drive.supply
         self._cache: dict[str, Any] = {}
         self._rows: tuple[np.ndarray, np.ndarray] | None = None  # collision rows' layout
@@ -325,8 +327,10 @@ class Problem:
         tau = np.linspace(0.0, 1.0, count)[1:-1]
         Q = basis(self.knots, self.n_c, tau, 0) @ self.C(x)
         d = self.dist.distances(Q) - self.dist.margins[None, :]
-        low = (d - 0.5 * self.clearance[None, :]).min(axis=1)
-        close = low < 0.0  # at an active row d = its clearance at the samples
+        # below half its clearance (below the clearance itself where that is negative):
+        # at an active row d = its clearance at the samples
+        low = (d - np.minimum(0.5 * self.clearance, self.clearance)[None, :]).min(axis=1)
+        close = low < 0.0
         if not close.any():
             return 0
         # per run of close times: its closest time and up to 6 more spread over the run

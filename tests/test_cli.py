@@ -709,7 +709,8 @@ def test_plot_3d_draws_obstacles_as_solids():
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    from mpd_pin.viz.plots import plot_arm_path, shape_faces
+    from mpd_pin.viz.plots import plot_arm_path
+    from mpd_pin.viz.scene import shape_faces
     from mpd_pin.world import Box, Cylinder, Hazard, Polygon, Sphere
 
     arm = mp.Arm.from_example_robot_data("panda")

@@ -37,7 +37,7 @@ from mpd_pin.app.results import validate_result  # noqa: E402
 from mpd_pin.app.scenario import parse_energy_scenario  # noqa: E402
 from mpd_pin.app.scenario_files import builtin_scenarios, scenario_kind  # noqa: E402
 from mpd_pin.app.show import DEFAULTS, with_defaults  # noqa: E402
-from mpd_pin.viz import plots  # noqa: E402
+from mpd_pin.viz import scene  # noqa: E402
 from mpd_pin.world import Box, World  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -171,7 +171,7 @@ def test_obstacle_labels_sit_on_their_own_solid_away_from_the_others():
              for o in data["obstacles"]}
     fig = plt.figure()
     ax = fig.add_subplot(projection="3d")
-    plots.draw_world_3d(ax, World(tuple(boxes.values())))
+    scene.draw_world_3d(ax, World(tuple(boxes.values())))
     labels = {t.get_text(): np.array(t.get_position_3d(), float) for t in ax.texts
               if str(t.get_gid()).startswith("label:")}
     plt.close(fig)

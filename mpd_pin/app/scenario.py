@@ -88,8 +88,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..arm.model import Arm
-from ..dynamics.motor import PAPER_MOTOR, SERVO_MOTOR, DCMotor, Drive
-from ..dynamics.sizing import check_holding, sized_motors
+from ..dynamics.motor import DCMotor, Drive
+from ..dynamics.sizing import check_holding
 from ..dynamics.supply import BUSES, PER_JOINT, Supply
 from ..motion.refine import MotionOptions
 from ..planning.roadmap import COLLISIONS, RoadmapOptions
@@ -107,6 +107,7 @@ from .limits import (
     size_bound,
 )
 from .scenario_files import builtin_scenarios, load_scenario_data, resolve_scenario
+from .scenario_motors import gain, motor_tables, motors_from_tables
 
 __all__ = [
     "EnergyScenario",
@@ -119,7 +120,6 @@ __all__ = [
 #: Values of ``[roadmap] evaluation`` (docs/design.md §4g); the first is the default.
 EVALUATIONS = ("lazy", "eager")
 
-MOTOR_PRESETS = {"paper": PAPER_MOTOR, "servo": SERVO_MOTOR, "sized": None}  # sized: per arm
 
 
 @dataclass
@@ -169,128 +169,6 @@ class EnergyScenario:
 
 
 # --------------------------------------------------------------------------- parts
-MOTOR_CONSTANTS = ("R", "L", "Kt", "Ke", "B", "J", "gear_ratio", "v_max")
-
-
-def _sized(t: Table, arm: Arm) -> list[DCMotor]:
-    """``preset = "sized"``: motors sized from the arm's URDF limits at the supply voltage
-    ``v_max`` (default 24 V; docs/design.md §3g)."""
-    supply = t.number("v_max", 24.0, bound=BOUNDS["v_max"]) if t.has("v_max") else 24.0
-    try:
-        return sized_motors(arm, supply_voltage=supply)
-    except ValueError as exc:
-        raise ConfigError(f"{t.path}.preset: {exc}") from None
-
-
-def _motor_one(
-    t: Table, arm: Arm, index: int | None = None, *, joint: int | None = None
-) -> DCMotor:
-    """One motor from a table of scalars; with ``index``, array values give joint ``index``.
-
-    ``joint`` is the joint the motor drives (``preset = "sized"`` needs it)."""
-    preset = t.string("preset", "paper", choices=MOTOR_PRESETS)
-    if preset == "sized":
-        j = index if index is not None else joint
-        if j is None:
-            raise ConfigError(f"{t.path}.preset: 'sized' gives one motor per joint")
-        base = _sized(t, arm)[j]
-    else:
-        base = MOTOR_PRESETS[preset]
-    t.seen.update(MOTOR_CONSTANTS)  # every constant is a known key (for unknown-key errors)
-    fields = {}
-    for name in MOTOR_CONSTANTS:
-        if not t.has(name):
-            continue
-        if index is None:
-            fields[name] = t.number(name, positive=name == "v_max")
-        else:
-            val = t.numbers(name)
-            fields[name] = val if isinstance(val, float) else val[index]
-    j = index if index is not None else joint
-    label = "" if j is None else f" (joint {arm.joint_names[j]!r})"
-    if fields.get("v_max", 1.0) <= 0:
-        raise ConfigError(f"{t.path}.v_max: must be > 0, got {fields['v_max']}{label}")
-    for name, val in fields.items():  # the physical ranges first (app/limits.py)
-        per_joint = index is not None and isinstance(t.data[name], list)
-        try:
-            BOUNDS[name].check(f"{t.path}.{name}" + (f"[{index}]" if per_joint else ""), val)
-        except ConfigError as exc:  # name the joint when the value is one joint's
-            raise ConfigError(f"{exc}{label if per_joint or joint is not None else ''}") from None
-    try:
-        motor = replace(base, **fields)
-    except ValueError as exc:  # DCMotor's own checks (R > 0, B ≥ 0, ...)
-        raise ConfigError(f"{t.path}{label}: {exc}") from None
-    return motor
-
-
-def _motors(top: Table, arm: Arm) -> DCMotor | list[DCMotor]:
-    """``[motor]`` (constants scalar or one per joint) or ``[[motors]]`` (one table per joint).
-
-    Returns one DCMotor when every constant is a scalar, else a list of ``nq``.
-    """
-    nq = arm.nq
-    if top.has("motor") and top.has("motors"):
-        raise ConfigError("give [motor] (shared or per-joint arrays) or [[motors]], not both")
-    if top.has("motors"):
-        tables = top.tables("motors")
-        if len(tables) != nq:
-            raise ConfigError(
-                f"motors: expected one [[motors]] table per joint ({nq}), got {len(tables)}"
-            )
-        motors = []
-        for j, t in enumerate(tables):
-            motors.append(_motor_one(t, arm, joint=j))
-            t.done()
-        return motors
-    t = top.table("motor")
-    per_joint = []
-    for name in MOTOR_CONSTANTS:
-        if t.has(name) and isinstance(t.data[name], list):
-            val = _per_joint_numbers(t, name, arm)
-            if len(val) != nq:
-                raise ConfigError(
-                    f"motor.{name}: expected one value or {nq} values (one per joint), "
-                    f"got {len(val)}"
-                )
-            per_joint.append(name)
-    if not per_joint and t.raw("preset", "paper") != "sized":
-        motor = _motor_one(t, arm)
-        t.done()
-        return motor
-    motors = [_motor_one(t, arm, j) for j in range(nq)]
-    t.done()
-    return motors
-
-
-def _per_joint_numbers(t: Table, name: str, arm: Arm) -> list[float] | float:
-    """``t.numbers(name)``; an error about element ``[i]`` also names joint i."""
-    try:
-        return t.numbers(name)
-    except ConfigError as exc:
-        m = re.match(rf"{re.escape(t.path)}\.{name}\[(\d+)\]", str(exc))
-        if m is None or int(m.group(1)) >= arm.nq:
-            raise
-        raise ConfigError(f"{exc} (joint {arm.joint_names[int(m.group(1))]!r})") from None
-
-
-def _motor_tables(top: Table) -> list[dict]:
-    """The raw ``[motor]`` / ``[[motors]]`` tables (for a first look at their presets)."""
-    raw = [top.data.get("motor", {})] + list(top.data.get("motors", []) or [])
-    return [m for m in raw if isinstance(m, dict)]
-
-
-def _gain(t: Table, key: str, default: float, nq: int) -> float | list[float]:
-    if t.has(key) and isinstance(t.data[key], (int, float)) and t.data[key] < 0:
-        raise ConfigError(f"{t.path}.{key}: gains must be ≥ 0, got {t.data[key]}")
-    val = t.numbers(key, default, bound=BOUNDS[key])
-    if isinstance(val, list) and len(val) != nq:
-        raise ConfigError(f"{t.path}.{key}: expected one value or {nq} values, got {len(val)}")
-    vals = [val] if isinstance(val, float) else val
-    if any(v < 0 for v in vals):
-        raise ConfigError(f"{t.path}.{key}: gains must be ≥ 0, got {val}")
-    return val
-
-
 #: Upper bounds of the roadmap parameters: far above the paper's roadmaps (150–250 nodes,
 #: k = 10) and what a workstation plans in minutes, low enough that a typo fails
 #: with a clear message instead of a MemoryError or a run of days.
@@ -560,13 +438,13 @@ def parse_energy_scenario(
     options = _options(roadmap_t)
     if seed is not None:
         options = replace(options, seed=int(seed))
-    sized = "sized" in {str(m.get("preset")) for m in _motor_tables(top)}
+    sized = "sized" in {str(m.get("preset")) for m in motor_tables(top)}
     check_joint_limits(arm, velocity=options.velocity_limits or sized,
                        effort=options.effort_limits or sized)
-    motor = _motors(top, arm)
+    motor = motors_from_tables(top, arm)
     ctl = top.table("controller")
-    kp = _gain(ctl, "kp", 40.0, arm.nq)
-    kd = _gain(ctl, "kd", 4.0, arm.nq)
+    kp = gain(ctl, "kp", 40.0, arm.nq)
+    kd = gain(ctl, "kd", 4.0, arm.nq)
     ff = ctl.boolean("feedforward", True)
     ctl.done()
     obstacles = []

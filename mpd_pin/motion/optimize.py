@@ -422,8 +422,8 @@ def _finish(drive: Drive, checker: Any, coarse: ViaSpline, options: Any,
                                           control_points=n_c,
                                           tolerance=0.1 * settings.tolerance,
                                           max_iterations=int(settings.polish_round),
-                                          rounds=-(-int(settings.polish)
-                                                   // int(settings.polish_round))))
+                                          rounds=math.ceil(settings.polish
+                                                           / settings.polish_round)))
     solves.append({"seed": name, **out.record})
     if out.motion is None:  # the certified coarse curve
         out = price_curve(drive, coarse, options, me)

@@ -86,6 +86,13 @@ def _exec(m) -> str:
     return "optim" if m.curve is not None else m.execution
 
 
+def _nc(m) -> str:
+    """Control points per joint of an optimised motion's curve ('-' when not optimised)."""
+    if m is None or m.curve is None:
+        return "-"
+    return str(int(m.curve.spline.c.shape[0]))
+
+
 def _why(record: dict | None) -> str:
     """Why an optimisation record kept its seed ('' when it did not)."""
     if not record or not record.get("kept_seed"):
@@ -182,9 +189,9 @@ def run(name: str, n: int, seed: int) -> list[dict]:
     rows: list[dict] = []
     print(f"\n{name}: {n} queries (sized motors, seed {seed})")
     print(f"{'q':>2} | {'mpd_pin optimize=False':>25} | {'mpd_pin optimised':>25} "
-          f"{'less':>6} {'CPU/runs':>7} | {'OMPL best at T':>25} | {'OMPL + optimise':>17} "
-          f"{'CPU':>5} | {'vs best':>7} {'vs OMPL+opt':>11} | {'restart':>7} {'CPU':>5} {'n_c':>7} "
-          f"{'same n_c':>7} | "
+          f"{'less':>6} {'CPU/runs':>7} n_c | {'OMPL best at T':>25} | {'OMPL + optimise':>17} "
+          f"{'CPU':>5} n_c | {'vs best':>7} {'vs OMPL+opt':>11} | {'restart':>7} {'CPU':>5} "
+          f"{'n_c':>7} {'same n_c':>7} | "
           f"plan s")
     for q, (start, goal) in enumerate(random_queries(scn, n, seed)):
         notes: list[str] = []
@@ -295,8 +302,10 @@ def run(name: str, n: int, seed: int) -> list[dict]:
             else 0.0
         rows.append(row)
         print(f"{q:2d} | {_exec(m0):>7} {_fmt(m0)} | {_exec(m1):>7} {_fmt(m1)} "
-              f"{row['less_opt']:5.1f}% {opt_cpu:5.2f}/{n_runs} | {_exec(best):>7} {_fmt(best)} | "
-              f"{_fmt(oo)} {oo_cpu:5.2f} | {row['vs_best']:6.1f}% {row['vs_ompl_opt']:10.1f}% | "
+              f"{row['less_opt']:5.1f}% {opt_cpu:5.2f}/{n_runs} {_nc(m1):>3} | {_exec(best):>7} "
+              f"{_fmt(best)} | "
+              f"{_fmt(oo)} {oo_cpu:5.2f} {_nc(oo):>3} | {row['vs_best']:6.1f}% "
+              f"{row['vs_ompl_opt']:10.2f}% | "
               f"{row['restart_less']:6.2f}% {row['restart_cpu']:5.2f} {row['restart_nc']:>7} "
               f"{row['restart_same_less']:6.2f}% | {cpu['plan']:6.2f} | independent "
               f"{row['independent_less']:5.2f}% less ({ind_cpu:.1f} s)")
@@ -348,7 +357,7 @@ def targets(rows: list[dict]) -> None:
            f"with a feasible OMPL + optimise motion")
     med = _med(vo)
     target("no worse than OMPL + the same optimisation in the median",
-           math.isfinite(med) and med >= 0.0, f"median {med:.1f} % less")
+           math.isfinite(med) and med >= 0.0, f"median {med:.2f} % less")
 
     rl = [r["restart_less"] for r in rows if math.isfinite(r["restart_less"])]
     med, top = _med(rl), max(rl, default=NAN)

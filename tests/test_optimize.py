@@ -27,6 +27,12 @@ def panda():
 
 
 @pytest.fixture(scope="module")
+def panda_plan(panda):
+    scn, checker = panda
+    return scn, checker, mp.plan(scn, show_progress=False)
+
+
+@pytest.fixture(scope="module")
 def quickstart():
     scn = mp.load_scenario("quickstart")
     plan = mp.plan(scn, show_progress=False)
@@ -316,12 +322,11 @@ def test_certificate_rejects_what_sparse_samples_miss(quickstart, monkeypatch):
     assert "not certified free" in out.record["why"]
 
 
-def test_panda_optimum_has_no_feasible_descent_direction(panda):
+def test_panda_optimum_has_no_feasible_descent_direction(panda_plan):
     """At the optimised Panda motion, the linearised problem (the constraints within
     reach) admits no step of at most 0.01 rad per control point that lowers the screen
     energy by more than 0.5 % to first order (scipy linprog)."""
-    scn, checker = panda
-    plan = mp.plan(scn, show_progress=False)
+    scn, checker, plan = panda_plan
     m = plan.motion
     assert m.curve is not None
     drive = scn.drive()
@@ -561,3 +566,120 @@ def test_a_round_that_rises_and_leaves_the_rows_ends_the_solve(quickstart, monke
     # a round that ends where it started goes on (the rounds end as usual)
     _, _, _, info, calls = solve(lambda prob, x: x)
     assert info["solver_message"] != O.DIVERGED and len(calls) == settings.rounds
+
+
+def test_velocity_peaks_between_the_energy_samples_get_rows(quickstart):
+    """§9g: the velocity rows sit at the energy samples, and a finer spline can peak
+    between them (bench/optimize.py: a finer Panda solve was refused at 1.0× the limit
+    when simulated). ``add_velocity_samples`` adds a row at each run over a limit, at its
+    fastest time; reference: scipy's BSpline derivative of the same control points at
+    20,000 times."""
+    scn, checker, plan = quickstart
+    drive = scn.drive()
+    C = plan.motion.curve.spline.c
+    knots = P.clamped_knots(C.shape[0])
+    vlim = O.joint_limits(drive)[0]
+    tau = np.linspace(0.0, 1.0, 20001)
+    dc = BSpline(knots, C, P.DEGREE).derivative()(tau)  # dq/dτ, rad
+    T = float(np.max(np.abs(dc) / vlim)) / 1.2  # its peak speed is 1.2× a limit at T
+    prob = P.Problem(drive, None, C, T, O.OptimizeSettings(samples=8))
+    x = prob.x0()
+    ratio = np.abs(dc / T) / vlim
+    over = np.flatnonzero(ratio.max(axis=0) > 1.0)
+    assert over.size
+    added = prob.add_velocity_samples(x)
+    assert added == len(prob.velocity_extra) >= over.size
+    assert set(prob.velocity_extra[:, 1].tolist()) == set(over.tolist())
+    # the fastest joint's row sits at its dense peak, and the row reads f·v_lim − |q̇| there
+    k = int(np.argmax(ratio.max(axis=0)))
+    i = np.flatnonzero(prob.velocity_extra[:, 1] == k)
+    t_row = prob.tau_v[prob.velocity_extra[i, 0]]
+    assert np.min(np.abs(t_row - tau[np.argmax(ratio[:, k])])) <= 1.0 / 3999 + 1e-12
+    A, b = prob.velocity()
+    g = A @ x + b
+    at_row = np.abs(BSpline(knots, C, P.DEGREE).derivative()(t_row)[:, k] / T)
+    assert g.min() == pytest.approx(0.99 * vlim[k] - at_row.max(), rel=1e-9)
+    peak = float(ratio[:, k].max()) * vlim[k]
+    assert at_row.max() == pytest.approx(peak, rel=1e-5)  # the peak, to the grid's spacing
+    # the energy samples alone do not see it: 8 intervals put no sample at the peak
+    assert np.max(np.abs(prob.dynamics(x)["v"][:, k])) < 0.99 * peak
+    # once added, not again; and a curve within its limits adds none
+    assert prob.add_velocity_samples(x) == 0
+    calm = P.Problem(drive, None, C, 1.3 * T, O.OptimizeSettings(samples=8))
+    assert calm.add_velocity_samples(calm.x0()) == 0
+
+
+def test_a_solve_that_ends_over_a_velocity_limit_solves_again(quickstart, monkeypatch):
+    """A solve whose end runs over a velocity limit between the energy samples (a finer
+    Panda solve was refused at 1.0× the limit when simulated) gets rows at its peaks and
+    solves again: with the solver replaced by one that first returns a curve over the
+    limits (the seed's excursion tripled) and then the seed, the second solve sees a row at
+    every peak of the first's and the motion kept is the seed's curve, within the limits.
+    Without the rows the first curve was priced and refused."""
+    scn, checker, plan = quickstart
+    drive = scn.drive()
+    seed = plan.motion.alternative
+    curve = O.seed_curve(drive, seed)
+    vlim = O.joint_limits(drive)[0]
+    calls = []
+
+    def fake(prob, x, settings, deadline=np.inf, iterations=10**9):
+        calls.append((prob.tau_v.copy(), prob.velocity_extra.copy()))
+        if len(calls) == 1:
+            C = prob.C(prob.x0())
+            over = C[:3].mean(axis=0) + 3.0 * (C[3:-3] - C[:3].mean(axis=0))
+            return over.ravel(), {"iterations": 1, "solver_status": 0, "solver_message": ""}
+        return prob.x0(), {"iterations": 1, "solver_status": 0, "solver_message": ""}
+
+    monkeypatch.setattr(O, "_solve", fake)
+    out = O.optimize_curve(drive, None, curve, seed.duration, scn.options)
+    assert len(calls) == 2 and out.record["velocity_rows_added"] >= 1
+    tau_v, rows = calls[1]
+    assert len(rows) == out.record["velocity_rows_added"]
+    # each row sits where the first curve ran over that joint's limit
+    n_c = out.record["control_points"]
+    C0 = O.fit_curve(lambda t: curve.spline(np.clip(t, 0, 1) * curve.unit_duration), n_c,
+                     curve.waypoints[0], curve.waypoints[-1])
+    mid = C0[:3].mean(axis=0)
+    C1 = C0.copy()
+    C1[3:-3] = mid + 3.0 * (C0[3:-3] - mid)
+    T = float(O.snap_steps(seed.duration, scn.options.dt))
+    v1 = BSpline(P.clamped_knots(n_c), C1, P.DEGREE).derivative()(tau_v) / T
+    for (i, k) in rows:
+        assert abs(v1[i, k]) > vlim[k]
+    assert out.motion is not None and out.motion.feasible
+    t = np.linspace(0.0, out.motion.duration, 4000)
+    assert np.max(np.abs(out.motion.curve.spline(t, 1)) / vlim) <= 1.0
+
+
+def test_a_finer_spline_follows_only_a_large_gain(quickstart):
+    """§9g: after the finer solve, one more on ``polish_points`` more control points
+    follows exactly when the finer solve gained more than ``refine_gain`` of its screen
+    energy; it is kept only when certified and cheaper simulated, and what is returned is
+    the simulated motion of the level kept."""
+    scn, checker, plan = quickstart
+    drive = scn.drive()
+    seed = plan.motion.alternative
+
+    def run(**kw):
+        return O.optimize_seeds(drive, checker, [("seed", O.seed_curve(drive, seed),
+                                                  seed.duration, seed)], scn.options,
+                                settings=O.OptimizeSettings(**kw))[1]
+
+    base = run(refinements=0)
+    fine = base.record["solves"][1]
+    gain = (fine["screen_energy_in"] - fine["screen_energy_out"]) / fine["screen_energy_in"]
+    assert gain > 0
+    assert len(run(refine_gain=1.01 * gain).record["solves"]) == 2
+    more = run(refine_gain=0.99 * gain)
+    _, fine2, finer = more.record["solves"]
+    assert fine2["energy"] == fine["energy"]
+    assert finer["control_points"] == fine["control_points"] + O.OptimizeSettings().polish_points
+    m = more.motion
+    if finer.get("kept_seed") is False:
+        assert finer["energy"] == m.total_energy < fine["energy"]
+        assert m.curve.spline.c.shape[0] == finer["control_points"]
+    else:
+        assert m.total_energy == fine["energy"]
+    series = mp.motion_series(drive, m, scn.options.dt)
+    np.testing.assert_allclose(series["energy_t"][-1], m.energy_per_joint, rtol=1e-9)

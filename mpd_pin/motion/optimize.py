@@ -263,6 +263,10 @@ def _optimize(drive, checker, T, options, settings, seed_motion, distances, C0, 
             rec.update(seconds=time.perf_counter() - w0, cpu_seconds=time.process_time() - c0,
                        margin=settings.margin, screened=True)
             return OptimizedMotion(None, rec, curve)
+        fast = 0
+        if options.velocity_limits:  # over a limit between the energy samples: rows there
+            fast = prob.add_velocity_samples(x)
+            rec["velocity_rows_added"] = rec.get("velocity_rows_added", 0) + fast
         if checker is not None:
             fail = _sampled_failure(checker, curve)
             # collision samples where it came too close between them, for the next solve
@@ -278,6 +282,10 @@ def _optimize(drive, checker, T, options, settings, seed_motion, distances, C0, 
                                                       else " (closer than the margin between "
                                                       "the collision samples)"))
                 continue
+        if fast:  # solve again with the new rows
+            rec["certified"] = False
+            rec["why"] = "over a velocity limit between the energy samples"
+            continue
         rec["certified"] = True
         rec.pop("why", None)
         if stage == "price":
@@ -339,7 +347,10 @@ def optimize_seeds(
     those that did not) goes on to convergence on its own control polygon (fresh SLSQP
     models, ``settings.budget`` iterations), then is solved once more on a finer spline
     (``settings.polish_points`` more control points per joint, ``settings.polish``
-    iterations), certified and simulated; when that is not kept, the
+    iterations), certified and simulated — and while such a solve gained more than
+    ``settings.refine_gain`` of its screen energy, once more on ``polish_points`` more
+    (at most ``settings.refinements`` times, each kept only when certified and cheaper
+    simulated); when the first finer solve is not kept, the
     converged coarse curve is certified and simulated instead; when neither is kept, or
     the result is no cheaper than the cheapest seed, the seed of next least screen energy
     is finished the same way. A seed whose screen energy lies more than :data:`PROMISING`
@@ -416,19 +427,47 @@ def _finish(drive: Drive, checker: Any, coarse: ViaSpline, options: Any,
         return OptimizedMotion(None, more.record, more.curve)
     coarse = more.curve or coarse
     n_c = int(coarse.spline.c.shape[0]) + int(settings.polish_points)
-    out = optimize_curve(drive, checker, coarse, T, options, seed_motion=me,
-                         distances=distances,
-                         settings=replace(settings, budget=int(settings.polish),
-                                          control_points=n_c,
-                                          tolerance=0.1 * settings.tolerance,
-                                          max_iterations=int(settings.polish_round),
-                                          rounds=math.ceil(settings.polish
-                                                           / settings.polish_round)))
+    out = _polish(drive, checker, coarse, T, options, settings, me, distances, n_c)
     solves.append({"seed": name, **out.record})
     if out.motion is None:  # the certified coarse curve
         out = price_curve(drive, coarse, options, me)
         solves.append({"seed": name, **out.record})
+        return out
+    for _ in range(int(settings.refinements)):
+        if _gain(out.record) <= settings.refine_gain:
+            break
+        n_c += int(settings.polish_points)
+        finer = _polish(drive, checker, out.curve, T, options, settings, out.motion,
+                        distances, n_c)
+        solves.append({"seed": name, **finer.record})
+        if finer.motion is None:  # not kept: the last certified level stays
+            break
+        out = finer
     return out
+
+
+def _polish(drive: Drive, checker: Any, curve: ViaSpline, T: float, options: Any,
+            settings: OptimizeSettings, me: MotionEnergy | None, distances: Any,
+            n_c: int) -> OptimizedMotion:
+    """The finer solve of :func:`_finish` on ``n_c`` control points per joint, seeded by
+    ``curve``: ``settings.polish`` iterations in rounds of ``settings.polish_round`` at
+    ``settings.polish_tolerance``; certified and simulated, kept when cheaper than ``me``."""
+    budget = int(settings.polish)
+    return optimize_curve(drive, checker, curve, T, options, seed_motion=me,
+                          distances=distances,
+                          settings=replace(settings, budget=int(budget),
+                                           control_points=n_c,
+                                           tolerance=float(settings.polish_tolerance),
+                                           max_iterations=int(settings.polish_round),
+                                           rounds=math.ceil(budget / settings.polish_round)))
+
+
+def _gain(record: dict[str, Any]) -> float:
+    """What a solve gained on its own screen: (E_in − E_out)/|E_in| (0 when unknown)."""
+    e_in, e_out = record.get("screen_energy_in"), record.get("screen_energy_out")
+    if e_in is None or e_out is None or not (math.isfinite(e_in) and math.isfinite(e_out)):
+        return 0.0
+    return (e_in - e_out) / max(abs(e_in), 1e-12)
 
 
 def _sampled_failure(checker: Any, curve: ViaSpline, samples: int = 400) -> float | None:

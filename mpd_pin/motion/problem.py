@@ -45,9 +45,15 @@ class OptimizeSettings:
     (reached only by solves that fail anyway: on the Panda's shared bus, SLSQP at 150 ms an
     iteration; such a screening solve ranks last); polish: iterations of the last solve of
     the best screened seed, with a fresh SLSQP model, on ``polish_points`` more control
-    points per joint and at a tenth of ``tolerance``, in rounds of ``polish_round``
+    points per joint and at ``polish_tolerance`` (SLSQP's ftol), in rounds of ``polish_round``
     iterations (a round restarts SLSQP's quasi-Newton model: the finer solve's rounds of
-    40 gained 0.1 % each, and 2 rounds of 120 cost 20 % less CPU for the same energies).
+    40 gained 0.1 % each, and 2 rounds of 120 cost 20 % less CPU for the same energies);
+    refine_gain, refinements: when the finer solve gained more than ``refine_gain`` of its
+    screen energy, the spline is too coarse for this motion, and up to ``refinements``
+    more finer solves follow, each on ``polish_points`` more control points, each kept only
+    when certified and cheaper simulated (the next level gained 0.25–0.44 of the last on
+    the Panda bench, so a gain above 12.5 % leaves an estimated 5 % to a finer spline:
+    docs/design.md §9g).
     """
 
     control_points: int = 0
@@ -69,6 +75,9 @@ class OptimizeSettings:
     polish: int = 240
     polish_points: int = 8
     polish_round: int = 120
+    polish_tolerance: float = 1e-6
+    refine_gain: float = 0.125
+    refinements: int = 1
 
 
 # ----------------------------------------------------------------------------- basis
@@ -166,6 +175,10 @@ class Problem:
         self.active: list[np.ndarray] = [np.zeros(0, np.int64)] * self.tau_c.size
         self.effort_rows = np.zeros((0, 2), np.int64)
         self.velocity_rows = np.zeros((0, 2), np.int64)
+        #: velocity rows between the energy samples (:meth:`add_velocity_samples`): their
+        #: times τ, and (index into those times, joint)
+        self.tau_v = np.zeros(0)
+        self.velocity_extra = np.zeros((0, 2), np.int64)
         self.beta = 1.0
 
     # -- variables
@@ -281,20 +294,55 @@ class Problem:
         return n
 
     def velocity(self) -> tuple[np.ndarray, np.ndarray]:
-        """Linear rows A x + b ≥ 0: |q̇_k(t_s)| ≤ f v_lim,k at the energy samples where the
-        round's start point is above half the limit."""
-        rows = self.velocity_rows
-        if not len(rows):
-            return np.zeros((0, self.nf * self.nq)), np.zeros(0)
-        s, k = rows[:, 0], rows[:, 1]
-        lim = self.s.velocity_fraction * self.vlim[k]
+        """Linear rows A x + b ≥ 0: |q̇_k(t)| ≤ f v_lim,k at the energy samples where the
+        round's start point is above half the limit, and at the times between them where
+        an earlier solve went over (:meth:`add_velocity_samples`)."""
+        B1 = [(self.B[1], self.velocity_rows)]
+        if len(self.velocity_extra):
+            B1.append((basis(self.knots, self.n_c, self.tau_v, 1) / self.T,
+                       self.velocity_extra))
         Cfix = self.C_fixed.copy()
         Cfix[3:-3] = 0.0
-        const = (self.B[1] @ Cfix)[s, k]
-        A = np.zeros((len(s), self.nf, self.nq))
-        A[np.arange(len(s)), :, k] = self.Bf[1][s]
-        A = A.reshape(len(s), -1)
-        return np.vstack([-A, A]), np.concatenate([lim - const, lim + const])
+        As, bs = [np.zeros((0, self.nf * self.nq))], [np.zeros(0)]
+        for Bv, rows in B1:
+            if not len(rows):
+                continue
+            s, k = rows[:, 0], rows[:, 1]
+            lim = self.s.velocity_fraction * self.vlim[k]
+            const = (Bv @ Cfix)[s, k]
+            A = np.zeros((len(s), self.nf, self.nq))
+            A[np.arange(len(s)), :, k] = Bv[s, 3:-3]
+            A = A.reshape(len(s), -1)
+            As += [-A, A]
+            bs += [lim - const, lim + const]
+        return np.vstack(As), np.concatenate(bs)
+
+    def add_velocity_samples(self, x: np.ndarray, count: int = 4000) -> int:
+        """Add velocity rows (``velocity_fraction`` of the limit) where |q̇| of the curve at
+        ``x``, checked at ``count`` times as the priced motion's peak speed is
+        (:meth:`~mpd_pin.motion.spline.ViaSpline.peak_speed_ratio`), exceeds a limit: each
+        run of such times adds its fastest time, per joint. Returns how many rows were
+        added (the peaks of a finer spline fell between the energy samples, and the
+        simulated motion was refused for its speed: docs/design.md §9g)."""
+        tau = np.linspace(0.0, 1.0, count)
+        v = (basis(self.knots, self.n_c, tau, 1) / self.T) @ self.C(x)
+        over = np.abs(v) / self.vlim[None, :] - 1.0  # > 0: over the limit
+        have = {(float(self.tau_v[i]), int(k)) for i, k in self.velocity_extra}
+        new_tau, rows = [], []
+        for k in np.flatnonzero((over > 1e-9).any(axis=0)):
+            hit = (over[:, k] > 1e-9).astype(int)
+            edges = np.flatnonzero(np.diff(np.concatenate([[0], hit, [0]])))
+            for a, b in zip(edges[::2], edges[1::2], strict=True):
+                t = float(tau[a + int(np.argmax(over[a:b, k]))])
+                if (t, int(k)) not in have:  # a row there already: the solve fell short
+                    rows.append((self.tau_v.size + len(new_tau), int(k)))
+                    new_tau.append(t)
+        if not rows:
+            return 0
+        self.tau_v = np.concatenate([self.tau_v, new_tau])
+        self.velocity_extra = np.vstack([self.velocity_extra,
+                                         np.asarray(rows, np.int64)])
+        return len(rows)
 
     def choose_effort_rows(self, x: np.ndarray) -> int:
         """Add the (sample, joint) rows where |τ_ff| at ``x`` is above half the limit."""

@@ -335,3 +335,29 @@ def test_visual_geometry_is_built_when_first_read_and_equals_the_eager_one(packa
     got = {name: np.round(np.array(pose), 9).tolist()
            for name, _, _, pose in _visual_summary(panda, q7)}
     assert got.keys() == ref.keys() and got == ref
+
+
+@pytest.mark.parametrize("name", ["panda", "ur5", "ur10", "kinova", "double_pendulum"])
+def test_example_robot_data_files_are_the_loaders_own(name):
+    """An example-robot-data arm is read from its files without making its loader (which
+    builds the whole robot, meshes and all: 0.42 s of ``mpd-pin run panda``): the files
+    are the ones the library's own loader names."""
+    from example_robot_data import robots_loader
+
+    from mpd_pin.arm.model import _erd_files
+
+    ours, theirs = _erd_files(name), robots_loader.loader(name)
+    for attr in ("urdf_filename", "df_path", "model_path", "srdf_path", "ref_posture"):
+        assert getattr(ours, attr) == getattr(theirs, attr), attr
+    assert not isinstance(ours, robots_loader.RobotLoader)  # not made
+
+
+def test_a_loader_with_its_own_init_is_made():
+    """A loader that changes its files in its own ``__init__`` (panda_collision drops its
+    SRDF there) is made, and its files read from it."""
+    from example_robot_data import robots_loader
+
+    from mpd_pin.arm.model import _erd_files
+
+    files = _erd_files("panda_collision")
+    assert isinstance(files, robots_loader.PandaLoaderCollision) and files.srdf_path is None

@@ -455,7 +455,7 @@ def _polish(drive: Drive, checker: Any, curve: ViaSpline, T: float, options: Any
     budget = int(settings.polish)
     return optimize_curve(drive, checker, curve, T, options, seed_motion=me,
                           distances=distances,
-                          settings=replace(settings, budget=int(budget),
+                          settings=replace(settings, budget=budget,
                                            control_points=n_c,
                                            tolerance=float(settings.polish_tolerance),
                                            max_iterations=int(settings.polish_round),

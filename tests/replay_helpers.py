@@ -58,7 +58,8 @@ _VIRTUAL_CLOCK = """<script>
 #: become 16 ms timers, which virtual time cannot pass without running. With compositor
 #: frames, virtual time raced through its budget on the 10 ms timers while a loaded CI
 #: machine drew few frames: the last frame, and so the clock, stood at 0.17–0.22 s of a
-#: 2 s motion after budgets of 4 s and 20 s alike.
+#: 2 s motion after budgets of 4 s and 20 s alike. Screenshots keep compositor frames:
+#: with timers the picture taken is not the canvas drawn (both screenshot tests fail).
 _FRAMES_ON_TIMERS = """<script>
 window.requestAnimationFrame = function (cb) {
     return setTimeout(function () { cb(performance.now()); }, 16);

@@ -222,6 +222,8 @@ class Cycle:
         matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
 
+        from ..viz.layout import tight
+
         power = self.power()
         fig, ax = plt.subplots(figsize=(10, 4))
         ax.plot(power["t"], power["P"], color="black", lw=1.0, gid="power")
@@ -249,7 +251,7 @@ class Cycle:
         cap = "" if self.cycle_time is None else f", cycle time {self.cycle_time:g} s"
         ax.set_title(f"{self.name}: {self.total_energy:.4g} J in {self.duration:.3f} s{cap} "
                      f"(dwells {self.dwell_energy:.3g} J)", fontsize=10)
-        fig.tight_layout()
+        tight(fig)
         return fig
 
     def save(self, out_dir: str | os.PathLike, *, replay: bool = True,

@@ -25,6 +25,7 @@ from matplotlib.colors import ListedColormap
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
+from ..viz.layout import tight
 from .fcs import FreeCartesianSpace
 from .ik import TwoLinkKinematics
 from .moving import MovingScene
@@ -167,7 +168,7 @@ def plot_paths(
     if cost_curve:
         _plot_cost_curve(ax2, cost_curve, _length(dstar_points))
     ax2.set_title("(b) PSO cost function")
-    fig.tight_layout()
+    tight(fig)
     return fig
 
 
@@ -249,7 +250,7 @@ def plot_joint_changes(ts: float, q: np.ndarray, *, title: str = "change in join
     ax.grid(alpha=0.3)
     ax.legend()
     ax.set_title(title)
-    fig.tight_layout()
+    tight(fig)
     return fig
 
 
@@ -270,5 +271,5 @@ def plot_obstacle_motion(kin: TwoLinkKinematics, scene: MovingScene, duration: f
     ax.set_title(f"obstacle motion over {duration:.2f} s\n(centre tracks, dots every 10 samples)")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("z (m)")
-    fig.tight_layout()
+    tight(fig)
     return fig

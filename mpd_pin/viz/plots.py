@@ -24,6 +24,7 @@ import pinocchio as pin
 
 from ..arm.model import Arm
 from ..world import Hazard, World
+from .layout import tight
 from .scene import (
     HIDDEN_COLOR,
     clearance_band_xz,
@@ -348,7 +349,7 @@ def plot_arm_path(
     else:
         ax.legend(loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=2, fontsize="small")
     ax.set_title(title or f"{arm.name}: path of {len(Q_nodes)} nodes")
-    fig.tight_layout()
+    tight(fig)
     return fig
 
 
@@ -376,7 +377,7 @@ def plot_joint_angles(
     ax.set_ylabel("joint angle (rad)")
     ax.legend(fontsize="small", ncol=2)
     ax.set_title(title or "joint angles along the path")
-    fig.tight_layout()
+    tight(fig)
     return fig
 
 
@@ -445,7 +446,7 @@ def plot_cumulative_energy(
     else:
         ax.legend(fontsize="small", ncol=2)
     ax.set_title(title or "cumulative electrical energy per joint")
-    fig.tight_layout()
+    tight(fig)
     return fig
 
 
@@ -530,5 +531,5 @@ def plot_energy_duration(
     ax.set_ylabel("energy drawn E⁺ (J)")
     ax.legend(handles=handles, fontsize="x-small", loc="upper right")
     ax.set_title(f"{title}: energy against duration" if title else "energy against duration")
-    fig.tight_layout()
+    tight(fig)
     return fig

@@ -23,6 +23,7 @@ from ..dynamics.supply import PER_JOINT
 from ..progress import bar as progress_bar
 from .energy import EXECUTIONS, MotionEnergy, stretch_front, trajectory_energy
 from .optimize import optimize_seeds, seed_curve
+from .outcome import waypoint_array
 from .relax import relax_path
 from .shortcut import shortcut_path
 
@@ -158,8 +159,10 @@ def refine_candidates(
     fixed: frozenset[str] = frozenset(),
 ) -> RefinedMotion:
     """The cheapest feasible motion over ``candidates`` (name → certified waypoints (m+1, nq)
-    rad, in order of preference on ties) under ``motion``; ``options``: the roadmap's
-    :class:`~mpd_pin.planning.roadmap.RoadmapOptions` (timing, limits, dt, resolution);
+    rad, in order of preference on ties; continuous joints may come wrapped, as roadmap
+    nodes are: they are unwrapped first, docs/design.md §1d) under ``motion``;
+    ``options``: the roadmap's :class:`~mpd_pin.planning.roadmap.RoadmapOptions` (timing,
+    limits, dt, resolution);
     ``checker`` certifies every new segment and non-stop curve. Candidates named in
     ``optional`` (detours; list them last) stop after their shortcut when it costs more
     than :data:`PRUNE` times the best shortcut before them. ValueError when no candidate
@@ -189,7 +192,11 @@ def refine_candidates(
     with progress_bar(len(jobs), "refinement", unit="candidate", enabled=progress,
                       iterable=jobs) as shown:
         for name, W, refining, objective in shown:  # the bar advances per candidate
-            W = np.asarray(W, dtype=float)
+            # a roadmap path holds its nodes wrapped to [−π, π): continuous joints unwrapped
+            # (§1d), so that the shortcut and the relaxation price every segment the
+            # shorter way round, as the roadmap did (a Bravo 7 path across the seam was
+            # refused: "no feasible sequence through the path's own segments")
+            W = waypoint_array(drive, W)
             rec: dict[str, Any] = {"name": name, "waypoints_in": int(W.shape[0])}
             if objective != "supply":
                 rec["objective"] = objective

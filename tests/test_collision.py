@@ -695,6 +695,23 @@ def test_bad_constructor():
     assert CollisionChecker(mp.Arm.from_example_robot_data("panda")).single_backend == "broadphase"
 
 
+def test_an_arm_without_collision_shapes_is_refused_among_obstacles():
+    """example-robot-data's asr_twodof has no <collision> element (counted in its URDF
+    text): every check would pass, so among obstacles the checker refuses it, naming why;
+    without obstacles it is a valid (collision-free) problem."""
+    import re
+
+    from mpd_pin.arm.model import _erd_files
+
+    urdf = open(_erd_files("asr_twodof").df_path, encoding="utf-8").read()
+    assert re.search(r"<collision[\s>]", urdf) is None and "<link" in urdf
+    arm = mp.Arm.from_example_robot_data("asr_twodof")
+    with pytest.raises(ValueError, match=r"asr_twodof.*no collision geometry.*1 obstacle"):
+        CollisionChecker(arm, World((Box((0.2, 0.2, 0.2), position=(0.3, 0.0, 0.3)),)))
+    free = CollisionChecker(arm, World(()))
+    assert free.is_free_batch(np.zeros((2, arm.nq))).all()
+
+
 def test_one_joint_arm_edges_against_dense_sampling():
     """A one-joint arm (its Jacobian comes back 1-D from Pinocchio): the certified edge
     check agrees with a dense brute-force sampling of the same edges."""

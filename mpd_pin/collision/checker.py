@@ -131,6 +131,13 @@ class CollisionChecker:
             world = World()
         if not isinstance(world, World):
             raise ValueError(f"world must be an mpd_pin.World, got {type(world).__name__}")
+        if len(world) and not arm.collision_model.ngeoms:
+            # every check would pass: an arm without shapes plans through any obstacle
+            raise ValueError(
+                f"arm {arm.name!r} has no collision geometry (its URDF has no <collision> "
+                f"element), so the world's {len(world)} obstacle(s) and hazard(s) cannot "
+                "be checked against it; give its links <collision> shapes, or plan "
+                "without obstacles")
         margin = float(margin)
         if not math.isfinite(margin) or margin < 0.0:
             raise ValueError(f"margin must be finite and >= 0 (m), got {margin!r}")

@@ -361,3 +361,26 @@ def test_a_loader_with_its_own_init_is_made():
 
     files = _erd_files("panda_collision")
     assert isinstance(files, robots_loader.PandaLoaderCollision) and files.srdf_path is None
+
+
+def test_a_robot_whose_every_joint_is_a_gripper_joint_says_so():
+    """finger_edu's three revolute joints all have "finger" in their names (read from its
+    URDF text): from_example_robot_data would lock them all as gripper joints, and says
+    so, naming them and the URDF that from_urdf loads whole (3 joints)."""
+    import re
+
+    from mpd_pin.arm.model import _erd_files
+
+    path = _erd_files("finger_edu").df_path
+    text = Path(path).read_text(encoding="utf-8")
+    joints = re.findall(r'<joint\s+name="([^"]+)"\s+type="(?:revolute|continuous|prismatic)"',
+                        text)
+    assert len(joints) == 3 and all("finger" in j for j in joints)
+    with pytest.raises(ValueError) as info:
+        mp.Arm.from_example_robot_data("finger_edu")
+    msg = str(info.value)
+    assert "every joint would be locked" in msg and "as gripper joints" in msg
+    assert all(repr(j) in msg for j in joints)
+    urdf = re.search(r"Arm\.from_urdf\('([^']+)'\)", msg).group(1)
+    assert Path(urdf).resolve() == Path(path).resolve()
+    assert mp.Arm.from_urdf(urdf).joint_names == joints

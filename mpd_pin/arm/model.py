@@ -341,6 +341,15 @@ class Arm:
             n for n in names[1:]
             if any(k in n.lower() for k in GRIPPER_KEYWORDS) or n in lock_at
         ]
+        if len(to_lock) == len(names) - 1:  # nothing would move: say why, not just that
+            by_name = [n for n in to_lock if n not in lock_at]
+            raise ValueError(
+                f"example-robot-data robot {name!r}: every joint would be locked"
+                + (f", {by_name} as gripper joints (names containing one of "
+                   f"{', '.join(GRIPPER_KEYWORDS)})" if by_name else "")
+                + (f", {sorted(lock_at)} by lock=" if lock_at else "")
+                + "; to move them load its URDF with "
+                f"Arm.from_urdf({os.path.normpath(loader.df_path)!r})")
         model, (collision,), q_ref = _reduce(full, [base.collision_model], q0, to_lock)
         locked = {n: float(q0[full.joints[full.getJointId(n)].idx_q]) for n in to_lock}
         model.name = name

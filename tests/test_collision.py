@@ -695,6 +695,56 @@ def test_bad_constructor():
     assert CollisionChecker(mp.Arm.from_example_robot_data("panda")).single_backend == "broadphase"
 
 
+def test_the_hull_screen_gives_the_meshes_answers(monkeypatch):
+    """The UR5's meshes are not nearly convex, so certification queries them; with the
+    hull screen (the default) each query asks every mesh's convex hull first and the
+    meshes only where the hull is not clear. Reference: the same checker without the
+    screen (meshes only) gives the same edges and boxes, and every accepted edge is free
+    at 60 samples (brute force); the screen answered queries the meshes then did not get."""
+    import mpd_pin.collision.motion as cm
+    import mpd_pin.collision.validity as cv
+
+    arm = mp.Arm.from_example_robot_data("ur5")
+    world = World((Box((0.3, 0.3, 0.3), position=(0.35, 0.15, 0.35), name="crate"),
+                   Box((1.5, 1.5, 0.02), position=(0.0, 0.0, -0.02), name="table")))
+    on, off = CollisionChecker(arm, world), CollisionChecker(arm, world, screen_on_hulls=False)
+    rng = np.random.default_rng(3)
+    lo, hi = np.maximum(arm.lower_limits, -np.pi), np.minimum(arm.upper_limits, np.pi)
+    Q = rng.uniform(lo, hi, size=(600, arm.nq))
+    Q = Q[on.is_free_batch(Q)][:240]
+    Q0, Q1 = Q[:120], Q[:120] + rng.uniform(-0.6, 0.6, size=(120, arm.nq))
+    rows = []
+    original = cv.batch_collides
+
+    def counted(model, data, state, X, pools):
+        rows.append((state.screen is None, state.gm, X.shape[0]))  # the calls that query
+        return original(model, data, state, X, pools)
+
+    monkeypatch.setattr(cv, "batch_collides", counted)
+    monkeypatch.setattr(cm, "batch_collides", counted)
+    got = on.edges_free(Q0, Q1, 0.05)
+    monkeypatch.undo()
+    hulls, meshes = on._cert_model().screen[0], on._cert_model().gm
+    screened = sum(n for q, gm, n in rows if q and gm is hulls)
+    asked = sum(n for q, gm, n in rows if q and gm is meshes)
+    want = off.edges_free(Q0, Q1, 0.05)
+    assert on._cert_model().screen is not None and off._cert_model().screen is None
+    np.testing.assert_array_equal(got, want)
+    assert 10 < got.sum() < len(got) - 10  # both kinds of edge
+    t = np.linspace(0.0, 1.0, 60)
+    for q0, q1 in zip(Q0[got], Q1[got], strict=True):
+        assert on.is_free_batch(q0 + t[:, None] * (q1 - q0)).all()
+    assert 0 < asked < screened  # the hulls cleared queries on their own
+    # boxes (the curves' certificate) alike
+    C = Q[120:]
+    Delta = np.full(C.shape, 0.02)
+    h = float(on.box_sizes(C, Delta).max())
+    clear, hit = on.boxes_clear(C, Delta, h)
+    assert len(C) >= 20 and 0 < clear.sum() < len(C)
+    for a, b in zip((clear, hit), off.boxes_clear(C, Delta, h), strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_an_arm_without_collision_shapes_is_refused_among_obstacles():
     """example-robot-data's asr_twodof has no <collision> element (counted in its URDF
     text): every check would pass, so among obstacles the checker refuses it, naming why;

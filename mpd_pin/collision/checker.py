@@ -98,6 +98,11 @@ class CollisionChecker:
         True (default): certified edges query nearly convex arm meshes through their
         convex hulls (:mod:`mpd_pin.collision.motion`, "Convex hulls"); False: on the
         meshes themselves (slower; for comparison). Exact checks always use the meshes.
+    screen_on_hulls:
+        True (default): certified edges and boxes query an arm mesh that is not nearly
+        convex on its convex hull first, and on the mesh only where the hull is not
+        clear (:mod:`mpd_pin.collision.motion`, "Hull screen"): the same answers, faster
+        for detailed meshes. False: on the meshes only (for comparison).
     payload:
         A :class:`~mpd_pin.Payload` the arm carries (replacing any the arm already
         carries): its box (``size``, m) is checked against every obstacle and hazard and
@@ -122,6 +127,7 @@ class CollisionChecker:
         min_step: float = MIN_STEP,
         certify_on_hulls: bool = True,
         payload: Payload | None = None,
+        screen_on_hulls: bool = True,
     ) -> None:
         if not isinstance(arm, Arm):
             raise ValueError(f"arm must be an mpd_pin.Arm, got {type(arm).__name__}")
@@ -158,6 +164,7 @@ class CollisionChecker:
         self.edge_mode = edge_mode
         self.min_step = min_step
         self.certify_on_hulls = bool(certify_on_hulls)
+        self.screen_on_hulls = bool(screen_on_hulls)
         self.arm = arm
         self.world = world
         self.margin = margin
@@ -309,6 +316,7 @@ class CollisionChecker:
             edge_mode=self.edge_mode,
             min_step=self.min_step,
             certify_on_hulls=self.certify_on_hulls,
+            screen_on_hulls=self.screen_on_hulls,
         )
 
     def describe(self) -> dict:
@@ -548,7 +556,7 @@ class CollisionChecker:
         if self._cert is None:
             self._cert = certification_model(
                 self.model, self.geometry, self._pool, self.num_threads,
-                hulls=self.certify_on_hulls,
+                hulls=self.certify_on_hulls, screen=self.screen_on_hulls,
             )
         return self._cert
 

@@ -61,12 +61,16 @@ PARALLEL_MIN = 32
 class QueryState(NamedTuple):
     """What a collision query runs on: the requests and pair flags (``gd``), the
     single-query broad-phase manager (None: loop over the pairs), the thread pool and
-    the geometry model ``gd`` belongs to."""
+    the geometry model ``gd`` belongs to; ``screen``, when given, a state with the same
+    pairs and requests on geometry that contains this one's (convex hulls of its meshes):
+    a configuration free there is free here, so only the screen's hits are queried here
+    (docs/design.md §4b, "Hull screen")."""
 
     gd: pin.GeometryData
     manager: Any
     pool: Any
     gm: pin.GeometryModel
+    screen: Any = None
 
 
 class PoolLoader:
@@ -92,6 +96,10 @@ class PoolLoader:
 
 def collides(model: pin.Model, data: pin.Data, state: QueryState, q: np.ndarray) -> bool:
     """Whether configuration ``q`` collides under ``state`` (stops at the first pair)."""
+    if state.screen is not None:
+        if not collides(model, data, state.screen, q):
+            return False
+        state = state._replace(screen=None)
     if state.manager is None:
         return pin.computeCollisions(model, data, state.gm, state.gd, q, True)
     return pin.computeCollisions(model, data, state.manager, q, True)
@@ -106,6 +114,12 @@ def batch_collides(
 ) -> np.ndarray:
     """Collision (K,) of each row of Q (K, nq) under ``state``: in parallel on the state's
     pool when ``pools`` is given, else one by one."""
+    if state.screen is not None:
+        hit = batch_collides(model, data, state.screen, Q, pools)
+        if hit.any():
+            hit[hit] = batch_collides(model, data, state._replace(screen=None),
+                                      np.ascontiguousarray(Q[hit]), pools)
+        return hit
     if pools is not None:
         pools.load(state.pool, state.gd)
         res = pin.computeCollisionsInParallel(
@@ -125,6 +139,16 @@ def trajectories_collide(
     """Per-configuration collision of each (n_i, nq) C-ordered trajectory under ``state``,
     stopping each trajectory at its first collision (later entries False); in parallel
     when ``pools`` is given."""
+    if state.screen is not None:  # free on the screen up to its first hit: free here too
+        first = trajectories_collide(model, data, state.screen, trajectories, pools)
+        out = [np.zeros(len(T), dtype=bool) for T in trajectories]
+        rest = [(t, int(np.argmax(r))) for t, r in enumerate(first) if r.any()]
+        if rest:
+            hits = trajectories_collide(model, data, state._replace(screen=None),
+                                        [trajectories[t][f:] for t, f in rest], pools)
+            for (t, f), r in zip(rest, hits, strict=True):
+                out[t][f:] = r
+        return out
     if pools is None:
         out = []
         for T in trajectories:

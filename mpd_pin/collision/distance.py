@@ -83,6 +83,9 @@ class PairDistances:
         joint = np.array([go.parentJoint for go in gm.geometryObjects], dtype=np.int64)
         self._j1 = joint[self._first] if self.pairs.size else np.zeros(0, np.int64)
         self._j2 = joint[self._second] if self.pairs.size else np.zeros(0, np.int64)
+        #: (P,) bool: pairs of two bodies no joint moves (an arm's base and its table):
+        #: the same distance in every configuration
+        self.static = (self._j1 == 0) & (self._j2 == 0)
         self.nq = self.model.nq
         # (njoints, 1, nv): 1 on the columns of the joints that move joint j (its support)
         self._support = np.zeros((self.model.njoints, 1, self.model.nv))

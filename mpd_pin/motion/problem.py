@@ -169,6 +169,10 @@ class Problem:
         if P:
             ends = distances.distances(C0[[0, -1]]) - distances.margins[None, :]
             self.clearance = np.minimum(ends.min(axis=0), float(settings.margin))
+        #: pairs of two bodies fixed to the world (an arm's base and its table): their
+        #: distance is the same for every motion, so they get no rows (zero-gradient rows
+        #: held at 0 by ``clearance``, at every collision sample)
+        self.static = distances.static if P else np.zeros(P, dtype=bool)
         self.supply = drive.supply
         self._cache: dict[str, Any] = {}
         self._rows: tuple[np.ndarray, np.ndarray] | None = None  # collision rows' layout
@@ -406,6 +410,7 @@ class Problem:
             return 0
         Q = self.Bc @ self.C(x)
         d = self.dist.distances(Q) - self.dist.margins[None, :]
+        d[:, self.static] = np.inf  # no motion changes their distance: never a row
         added = 0
         for s, row in enumerate(d):
             near = np.flatnonzero(row < self.s.activation)

@@ -745,6 +745,35 @@ def test_the_hull_screen_gives_the_meshes_answers(monkeypatch):
         np.testing.assert_array_equal(a, b)
 
 
+def test_the_hull_screen_follows_a_revealed_obstacle_and_hazard_margins():
+    """The screen's query states are derived from the pair state (margins, active pairs)
+    and cached per epoch: after a hidden obstacle is revealed, and with a hazard's
+    clearance enforced, the UR5's certified edges with the screen are those without it,
+    and the reveal changed some of them."""
+
+    def world():
+        return World((Box((0.3, 0.3, 0.3), position=(0.35, 0.15, 0.35), name="crate"),
+                      Box((0.1, 0.1, 0.6), position=(-0.3, -0.3, 0.3), name="post",
+                          hidden=True),
+                      Hazard(Sphere(0.1, position=(0.0, 0.45, 0.5), name="hot"), 0.05)))
+
+    arm = mp.Arm.from_example_robot_data("ur5")
+    on = CollisionChecker(arm, world(), hazard_clearance=True)
+    off = CollisionChecker(arm, world(), hazard_clearance=True, screen_on_hulls=False)
+    rng = np.random.default_rng(5)
+    lo, hi = np.maximum(arm.lower_limits, -np.pi), np.minimum(arm.upper_limits, np.pi)
+    Q = rng.uniform(lo, hi, size=(900, arm.nq))
+    Q = Q[on.is_free_batch(Q)][:150]
+    Q0, Q1 = Q[:75], Q[75:150]
+    before = on.edges_free(Q0, Q1, 0.05)
+    np.testing.assert_array_equal(before, off.edges_free(Q0, Q1, 0.05))
+    assert on.reveal("post") == ["post"] and off.reveal("post") == ["post"]
+    after = on.edges_free(Q0, Q1, 0.05)
+    np.testing.assert_array_equal(after, off.edges_free(Q0, Q1, 0.05))
+    assert np.any(before & ~after) and not np.any(after & ~before)
+    assert on._cert_model().screen is not None
+
+
 def test_an_arm_without_collision_shapes_is_refused_among_obstacles():
     """example-robot-data's asr_twodof has no <collision> element (counted in its URDF
     text): every check would pass, so among obstacles the checker refuses it, naming why;

@@ -29,7 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..arm.model import Arm
-from ..dynamics.payload import GEOMETRY_PREFIX, Payload, carried_payload, payload_arm
+from ..dynamics.payload import Payload, carried_payload, payload_arm
 from ..world import World
 from . import validity
 from .bounds import MotionBounds, displacement_bounds, motion_bounds, require_supported
@@ -54,6 +54,7 @@ from .motion import (
     edge_collides_discrete,
     edges_collide_discrete,
 )
+from .report import collision_phrase, geometry_label
 from .validity import PoolLoader, QueryState, collides
 
 __all__ = ["CollisionChecker"]
@@ -436,22 +437,7 @@ class CollisionChecker:
         "link 'link3' touches obstacle 'divider'", "links 'link2' and 'link3' touch
         obstacle 'box0'" ("come(s) within 0.05 m of" where a margin or hazard clearance
         applies); at most ``limit`` such groups, then "and N more"; "" when ``q`` is free."""
-        groups: dict[tuple[str, float], list[str]] = {}
-        for a, b, m in self._named_collisions(q):
-            groups.setdefault((b, m), []).append(a)
-        parts = []
-        for (b, m), labels in list(groups.items())[:limit]:
-            one = len(labels) == 1
-            links = [a.removeprefix("link ") for a in labels if a.startswith("link ")]
-            names = ([f"link {links[0]}" if len(links) == 1 else "links " + _and(links)]
-                     if links else []) + [a for a in labels if not a.startswith("link ")]
-            who = _and(names)
-            verb = ("touches" if one else "touch") if m <= 0.0 else (
-                f"{'comes' if one else 'come'} within {m:g} m of")
-            parts.append(f"{who} {verb} {b}")
-        if len(groups) > limit:
-            parts.append(f"and {len(groups) - limit} more")
-        return "; ".join(parts)
+        return collision_phrase(self._named_collisions(q), limit)
 
     def _named_collisions(self, q: Any) -> list[tuple[str, str, float]]:
         """(link, other, margin m) of each colliding pair at ``q`` (:meth:`colliding_pairs`)."""
@@ -472,21 +458,8 @@ class CollisionChecker:
         return out
 
     def _geometry_label(self, i: int) -> str:
-        """``"link 'name'"`` for an arm geometry (its parent frame's name, else the
-        geometry's name without Pinocchio's ``_<index>`` suffix), ``"obstacle 'name'"`` or
-        ``"hazard 'name'"`` for the world's."""
-        go = self.geom_model.geometryObjects[i]
-        if i in self.arm_geometry_ids:
-            if go.name.startswith(GEOMETRY_PREFIX):
-                return f"payload {go.name.removeprefix(GEOMETRY_PREFIX)!r}"
-            frame = int(go.parentFrame)
-            if 0 <= frame < self.model.nframes:
-                return f"link {self.model.frames[frame].name!r}"
-            base, _, tail = go.name.rpartition("_")
-            name = base if base and tail.isdigit() else go.name
-            return f"link {name!r}"
-        kind, _, name = go.name.partition(":")
-        return f"{kind} {name!r}" if name else repr(go.name)
+        """What geometry ``i`` is called in a report (:func:`.report.geometry_label`)."""
+        return geometry_label(self.model, self.geom_model, self.arm_geometry_ids, i)
 
     def clearance(self, q: Any, *, hazards: bool = True) -> float:
         """Signed minimum distance (m) from the arm to the known obstacles and hazards.
@@ -695,7 +668,3 @@ class CollisionChecker:
             if self._include_hidden or self.world.is_known(n)
         ]
 
-
-def _and(items: list[str]) -> str:
-    """``"a"``, ``"a and b"``, ``"a, b and c"``."""
-    return items[0] if len(items) == 1 else f"{', '.join(items[:-1])} and {items[-1]}"

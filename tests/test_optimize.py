@@ -39,6 +39,14 @@ def quickstart():
     return scn, mp.CollisionChecker(scn.arm, scn.world), plan
 
 
+def _pair_index(dist: PairDistances, names: tuple[str, str]) -> int:
+    """The index among ``dist``'s enforced pairs of the pair of geometries ``names``."""
+    gm = dist.gm
+    return [(gm.geometryObjects[gm.collisionPairs[int(k)].first].name,
+             gm.geometryObjects[gm.collisionPairs[int(k)].second].name)
+            for k in dist.pairs].index(names)
+
+
 def test_distance_gradients_match_finite_differences(panda):
     scn, checker = panda
     dist = PairDistances(checker)
@@ -413,14 +421,12 @@ def test_a_pair_the_start_leaves_closer_than_the_margin_does_not_stall_the_solve
     scn, plan = ur5
     checker = mp.CollisionChecker(scn.arm, scn.world)
     dist = PairDistances(checker)
-    names = [(dist.gm.geometryObjects[dist.gm.collisionPairs[int(k)].first].name,
-              dist.gm.geometryObjects[dist.gm.collisionPairs[int(k)].second].name)
-             for k in dist.pairs]
-    p = names.index(("base_link_0", "obstacle:table"))
+    pair = ("base_link_0", "obstacle:table")
+    p = _pair_index(dist, pair)
     # the reference: Coal's distance between the two fixed shapes at their placements
     data, gdata = dist.model.createData(), dist.gm.createData()
     pin.updateGeometryPlacements(dist.model, data, dist.gm, gdata, scn.start)
-    a, b = (dist.gm.getGeometryId(n) for n in names[p])
+    a, b = (dist.gm.getGeometryId(n) for n in pair)
     req, res = coal.DistanceRequest(), coal.DistanceResult()
     req.gjk_tolerance = 1e-9  # as PairDistances (Coal's default 1e-6 is 1e-7 m off here)
     gap = coal.distance(dist.gm.geometryObjects[a].geometry, gdata.oMg[a],
@@ -447,10 +453,7 @@ def test_a_pair_of_two_bodies_fixed_to_the_world_gets_no_rows(ur5):
     scn, plan = ur5
     checker = mp.CollisionChecker(scn.arm, scn.world)
     dist = PairDistances(checker)
-    names = [(dist.gm.geometryObjects[dist.gm.collisionPairs[int(k)].first].name,
-              dist.gm.geometryObjects[dist.gm.collisionPairs[int(k)].second].name)
-             for k in dist.pairs]
-    p = names.index(("base_link_0", "obstacle:table"))
+    p = _pair_index(dist, ("base_link_0", "obstacle:table"))
     rng = np.random.default_rng(0)
     Q = rng.uniform(scn.arm.lower_limits, scn.arm.upper_limits, size=(30, scn.arm.nq))
     D = dist.distances(Q)
@@ -488,15 +491,13 @@ def test_a_pair_whose_hulls_overlap_at_a_free_start_may_overlap_as_much():
     goal = np.array([1.2354, -0.3423, 0.187, -1.7811, 0.9557, 0.1438])
     assert checker.is_free_batch(np.vstack([start, goal])).all()
     dist = PairDistances(checker)
-    names = [(dist.gm.geometryObjects[dist.gm.collisionPairs[int(k)].first].name,
-              dist.gm.geometryObjects[dist.gm.collisionPairs[int(k)].second].name)
-             for k in dist.pairs]
-    p = names.index(("forearm_link_0", "wrist_2_link_0"))
+    pair = ("forearm_link_0", "wrist_2_link_0")
+    p = _pair_index(dist, pair)
 
     def coal_gap(q):  # the reference: Coal between the two hulls at their placements
         data, gdata = dist.model.createData(), dist.gm.createData()
         pin.updateGeometryPlacements(dist.model, data, dist.gm, gdata, q)
-        a, b = (dist.gm.getGeometryId(n) for n in names[p])
+        a, b = (dist.gm.getGeometryId(n) for n in pair)
         req, res = coal.DistanceRequest(), coal.DistanceResult()
         req.gjk_tolerance = 1e-9
         return coal.distance(dist.gm.geometryObjects[a].geometry, gdata.oMg[a],

@@ -15,7 +15,8 @@ class NoPathError(MpdPinError):
 
 class NoMotionWithinDuration(MpdPinError):
     """No candidate motion runs within the ``max_duration`` asked for (a planning outcome,
-    not bad input; docs/design.md §9f). ``max_duration`` (s) is the cap; ``fastest`` (s)
+    not bad input; docs/design.md §9f); with no cap (``max_duration`` None), no candidate
+    gives a feasible motion at any duration. ``max_duration`` (s) is the cap; ``fastest`` (s)
     the duration of the fastest motion found; ``plan`` the
     :class:`~mpd_pin.app.planned.Plan` of that motion, priced without the cap (at its
     fastest duration), whose ``to_dict()["feasible"]`` is False and ``to_dict()["reason"]``

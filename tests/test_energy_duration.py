@@ -251,3 +251,41 @@ def test_the_figure_draws_every_candidate_front(planned):
     finally:
         for fig in figs.values():
             plt.close(fig)
+
+
+def test_no_feasible_motion_at_any_duration_exits_3_with_its_files(quick, tmp_path, capsys,
+                                                                    monkeypatch):
+    """No cap, and every candidate's motion infeasible (here: each priced motion flagged so,
+    as an effort limit no duration meets would): a planning outcome, not bad input. Exit
+    3, one line on stderr; result.json is written, ``feasible`` false, its reason naming
+    every candidate's; the motion returned is the preferred candidate's as priced (its
+    record in ``motion.refinement``)."""
+    import mpd_pin.motion.refine as refine
+
+    real = refine.trajectory_energy
+
+    def infeasible(*args, **kwargs):
+        m = real(*args, **kwargs)
+        m.feasible, m.reason = False, "effort 1.30 × the limit (test)"
+        return m
+
+    monkeypatch.setattr(refine, "trajectory_energy", infeasible)
+    out = tmp_path / "out"
+    code = main(["run", "quickstart", "--out", str(out), "--nodes", str(NODES), "--quiet",
+                 "--no-replay", "--no-plots"])
+    err = capsys.readouterr().err
+    assert code == 3, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(
+        "mpd-pin: no feasible motion at any duration: no feasible motion among the "
+        "candidates (energy optimum: effort 1.30 × the limit (test)"), err
+    result = read_result(out)
+    assert result["feasible"] is False
+    rows = result["motion"]["refinement"]["candidates"]
+    assert len(rows) >= 2 and all(r["feasible"] is False for r in rows)
+    for r in rows:
+        assert f"{r['name']}: effort 1.30 × the limit (test)" in result["reason"]
+    first = rows[0]
+    assert result["motion"]["refinement"]["candidate"] == first["name"] == "energy optimum"
+    assert result["total_energy"] == pytest.approx(first["total_energy"], rel=1e-12)
+    assert result["motion"]["duration"] == pytest.approx(first["duration"], abs=1e-12)

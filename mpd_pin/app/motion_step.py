@@ -23,7 +23,8 @@ the run still has an answer, a planning outcome rather than bad input: the faste
 found (the candidate and execution with the least fastest feasible duration,
 ``MotionEnergy.fastest``, priced again at that duration), flagged infeasible
 (``RunMotion.failure`` says why; the planner raises
-:class:`~mpd_pin.errors.NoMotionWithinDuration` with its plan).
+:class:`~mpd_pin.errors.NoMotionWithinDuration` with its plan). Without a cap, no
+candidate feasible at any duration is the same kind of outcome (:func:`_none_feasible`).
 
 ``RunMotion.energy_duration`` is result.json ``energy_duration``: the energy–time fronts
 of the motion returned and of every candidate (:mod:`mpd_pin.motion.front`).
@@ -251,6 +252,29 @@ def _fastest_found(scn: EnergyScenario, drive, checker, exc: NoFeasibleMotion,
                      energy_duration=energy_duration_record(name, motion, exc.motions, cap))
 
 
+def _none_feasible(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Verification,
+                   exc: NoFeasibleMotion, started: tuple[float, float]) -> RunMotion:
+    """No candidate gives a feasible motion at any duration (no ``max_duration``): a planning
+    outcome, not bad input. The answer is the preferred candidate's motion as priced (the
+    first of ``exc.motions``; the roadmap path with the roadmap's energies when every
+    candidate failed its own refinement), flagged infeasible, ``failure`` saying why (the
+    planner raises :class:`~mpd_pin.errors.NoMotionWithinDuration` with its plan, and
+    ``mpd-pin run`` exits with status 3, result.json ``"feasible": false``)."""
+    drive = setup.drive
+    if exc.motions:
+        name, m = next(iter(exc.motions.items()))
+    else:
+        name, m = OPTIMUM, roadmap_motion(drive, setup, plan, check)
+    m = dataclasses.replace(m, feasible=False, reason=m.reason or str(exc))
+    failure = f"no feasible motion at any duration: {exc}"
+    refined = RefinedMotion(m, name, exc.candidates, time.perf_counter() - started[0],
+                            time.process_time() - started[1], dict(exc.motions))
+    note = f"no feasible motion: the {name} as priced, infeasible"
+    return RunMotion(m, motion_series(drive, m, scn.options.dt), refined, None, note,
+                     failure=failure, energy_duration=energy_duration_record(
+                         name, m, dict(exc.motions) or {name: m}, None))
+
+
 def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Verification,
                 shortest: PlanResult | None, *, show_progress: bool = False) -> RunMotion:
     """The returned motion of a run (module docstring); ``show_progress``: a bar over the
@@ -296,7 +320,7 @@ def make_motion(scn: EnergyScenario, setup: Setup, plan: PlanResult, check: Veri
                                     progress=show_progress, fixed=fixed)
     except NoFeasibleMotion as exc:
         if opts.max_duration is None:
-            raise
+            return _none_feasible(scn, setup, plan, check, exc, (w0, c0))
         return _fastest_found(scn, drive, checker, exc, f"{how}{opts.execution} execution, "
                               f"{many}", (w0, c0))
     short_motion = None

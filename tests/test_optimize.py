@@ -8,6 +8,8 @@ scipy's linprog for the absence of a feasible first-order descent direction.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy.interpolate import BSpline
@@ -151,7 +153,7 @@ def test_energy_gradient_matches_finite_differences(quickstart):
     assert np.max(np.abs(fd - g)) < 1e-3 * np.max(np.abs(fd))
 
 
-def test_run_motion_is_optimised_certified_and_resimulated(quickstart):
+def test_run_motion_is_optimised_certified_and_resimulated(quickstart, monkeypatch):
     scn, checker, plan = quickstart
     refined = plan._parts.motion.refined
     assert refined.candidate == "optimised"
@@ -164,8 +166,20 @@ def test_run_motion_is_optimised_certified_and_resimulated(quickstart):
     assert m.total_energy < min(others)
     assert opt["energy_after"] == pytest.approx(m.total_energy, rel=1e-12)
     # the energy kept is the simulation's: a recorded re-run gives it again
-    series = mp.motion_series(scn.drive(), m, scn.options.dt)
-    np.testing.assert_allclose(series["energy_t"][-1], m.energy_per_joint, rtol=1e-9)
+    again = mp.motion_series(scn.drive(), replace(m, recorded=None), scn.options.dt)
+    np.testing.assert_allclose(again["energy_t"][-1], m.energy_per_joint, rtol=1e-9)
+    # the run's series is the recording of the simulation that priced the motion
+    # (MotionEnergy.recorded), not a second simulation, and equal to the re-run to the bit
+    import mpd_pin.motion.series as S
+
+    def no_second_simulation(*args, **kwargs):
+        raise AssertionError("the optimised motion was simulated again for its series")
+
+    monkeypatch.setattr(S, "simulate_nonstop", no_second_simulation)
+    kept = mp.motion_series(scn.drive(), m, scn.options.dt)
+    for key in ("t", "q", "v", "i", "V", "energy_t", "bus_energy_t", "node_times"):
+        np.testing.assert_array_equal(kept[key], again[key])
+        np.testing.assert_array_equal(plan._parts.motion.series[key], again[key])
     # densely free (20,000 samples), and the ends are the task's
     t = np.linspace(0.0, m.duration, 20000)
     Q = m.curve.spline(t)

@@ -481,7 +481,8 @@ def _sampled_failure(checker: Any, curve: ViaSpline, samples: int = 400) -> floa
 def _price(drive: Drive, curve: ViaSpline, T: float, options) -> MotionEnergy:
     """Simulate the optimised curve at T (RK4, §3) and check it as a non-stop piece."""
     vlim, elim = joint_limits(drive)
-    E, _, err, _, peak, B = simulate_nonstop(drive, curve, np.array([T]), float(options.dt))
+    (E, _, err, _, peak, B), rec = simulate_nonstop(drive, curve, np.array([T]),
+                                                    float(options.dt), record=True)
     vel = curve.peak_speed_ratio(vlim) * curve.unit_duration / T
     eff = float(np.max(peak[0] / elim))
     e = float(np.max(np.abs(err[0])))
@@ -493,7 +494,7 @@ def _price(drive: Drive, curve: ViaSpline, T: float, options) -> MotionEnergy:
                         0, [(0, m)], np.array([T]), "; ".join(reasons),
                         energy_by_execution={"nonstop": total if not reasons else None},
                         fastest=T if math.isfinite(T) else 0.0, bus_energy=B[0].copy(),
-                        supply=drive.supply, curve=curve)
+                        supply=drive.supply, curve=curve, recorded=rec)
 
 
 def optimize_motion(
@@ -550,7 +551,7 @@ def optimize_motion(
         base.reason = "; ".join(filter(None, [base.reason, "the spline through the waypoints "
                                               f"is not certified free at t = "
                                               f"{fail * T / seed.unit_duration:.3f} s"]))
-    base.curve = None  # the seed is the spline through its waypoints: recorded as such
+    base.curve = base.recorded = None  # the seed is the spline through its waypoints
     base.fastest = t_min
     _, out = optimize_seeds(drive, checker, [("waypoints", seed, T, base)], options, settings)
     if out.motion is None:

@@ -83,6 +83,10 @@ class MotionEnergy:
     curve: ViaSpline | None = None
     #: ``motion.optimization`` of the optimisation that made or kept this motion (§9g)
     optimization: dict[str, Any] | None = None
+    #: the recorded series (:class:`~mpd_pin.dynamics.tracking.TrackedSeries`) of the
+    #: simulation that priced an optimised motion at ``duration``: its time series is that
+    #: simulation's, not simulated again (docs/design.md §9d); None for every other motion
+    recorded: Any = field(default=None, repr=False, compare=False)
 
     @property
     def fastest_duration(self) -> float:

@@ -1,7 +1,9 @@
 """The time series of a motion, for files, plots and replay (docs/design.md §9d).
 
 Both executions are re-simulated with the batched integrator recording every RK4 step
-(:func:`~mpd_pin.dynamics.tracking.integrate_tables`): the stop-and-go edges in one batch
+(:func:`~mpd_pin.dynamics.tracking.integrate_tables`), except an optimised motion, whose
+pricing simulation recorded its series (``MotionEnergy.recorded``, the same computation):
+the stop-and-go edges in one batch
 (rows never mix, so each equals :func:`~mpd_pin.dynamics.simulate.edge_outcomes` for that
 edge), each non-stop piece at its chosen duration. A timed motion (execution "timed",
 :mod:`mpd_pin.motion.timed`) keeps its segment durations in ``piece_durations``: its knot
@@ -51,7 +53,9 @@ def _pieces(drive: Drive, m: MotionEnergy, dt: float):
         return
     if m.curve is not None:  # an optimised motion follows its own spline (§9g)
         T = float(m.piece_durations[0])
-        _, rec = simulate_nonstop(drive, m.curve, np.array([T]), dt, record=True)
+        rec = m.recorded  # the simulation that priced it, when kept at this duration
+        if rec is None or rec.q.shape[0] != step_count(T, dt) + 1:
+            _, rec = simulate_nonstop(drive, m.curve, np.array([T]), dt, record=True)
         t = np.arange(rec.q.shape[0]) * dt
         yield (t, rec.q[:, 0], rec.v[:, 0], rec.i[:, 0], rec.V[:, 0], rec.energy_t[:, 0],
                rec.bus_energy_t[:, 0], m.curve.knots * (T / m.curve.unit_duration))

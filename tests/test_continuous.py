@@ -174,3 +174,21 @@ def test_refinement_takes_a_path_across_the_seam_the_short_way(kinova, drive):
     j1 = out.motion.waypoints[:, 0]
     assert j1[-1] - j1[0] == pytest.approx(2 * np.pi - 5.4, abs=1e-12)
     assert out.candidates[0]["stop_energy_in"] == ref.candidates[0]["stop_energy_in"]
+
+
+def test_a_continuous_joint_has_no_range_to_leave(kinova):
+    """``range_reason``: past ±π on a continuous joint is no limit passed (§1d); the same
+    excess on a joint with a range is, named with the amount (reference: the URDF limits
+    read by hand from the model)."""
+    from mpd_pin.motion.outcome import range_reason
+
+    cont = np.flatnonzero(kinova.continuous_mask)
+    ranged = np.flatnonzero(~kinova.continuous_mask)
+    assert cont.size and ranged.size
+    q = np.tile(0.5 * (kinova.lower_limits + kinova.upper_limits), (3, 1))
+    q[1, cont[0]] = np.pi + 0.4
+    assert range_reason(kinova, q) == ""
+    j = int(ranged[0])
+    q[2, j] = float(kinova.model.lowerPositionLimit[j]) - 0.02
+    assert range_reason(kinova, q) == (f"joint {kinova.joint_names[j]!r} passes its lower "
+                                       "limit by 0.02 rad (simulated)")

@@ -8,6 +8,7 @@ scipy's linprog for the absence of a feasible first-order descent direction.
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -732,3 +733,31 @@ def test_a_finer_spline_follows_only_a_large_gain(quickstart):
         assert m.total_energy == fine["energy"]
     series = mp.motion_series(drive, m, scn.options.dt)
     np.testing.assert_allclose(series["energy_t"][-1], m.energy_per_joint, rtol=1e-9)
+
+
+def test_an_optimum_whose_simulation_leaves_the_joint_range_is_not_kept(quickstart):
+    """The simulated motion, not only its reference, must stay within each joint's range
+    (an UR10 optimum along a limit was tracked 1.6e-4 rad past it). Reference: the run's
+    own recorded series. The same curve priced on a copy of the arm whose upper limit of
+    joint 2 lies 1e-4 rad below that series' peak is infeasible, the reason naming the
+    joint, the limit and that 1e-4 rad; and the optimisation does not keep it."""
+    import pinocchio as pin
+
+    scn, _, plan = quickstart
+    m = plan.motion
+    assert m.curve is not None
+    k = 1
+    peak = float(plan._parts.motion.series["q"][:, k].max())
+    model = pin.Model(scn.arm.model)
+    model.upperPositionLimit[k] = peak - 1e-4
+    drive = replace(scn.drive(), arm=replace(scn.arm, model=model))
+    inside = O._price(scn.drive(), m.curve, m.duration, scn.options)
+    assert inside.feasible and inside.total_energy == m.total_energy
+    outside = O._price(drive, m.curve, m.duration, scn.options)
+    assert not outside.feasible
+    name = scn.arm.joint_names[k]
+    hit = re.search(rf"joint '{name}' passes its upper limit by ([0-9.e-]+) rad", outside.reason)
+    assert hit, outside.reason
+    assert float(hit.group(1)) == pytest.approx(1e-4, rel=1e-2)
+    judged = O._judge(outside, None, {}, m.curve)
+    assert judged.motion is None and f"joint '{name}' passes" in judged.record["why"]

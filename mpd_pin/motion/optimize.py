@@ -25,8 +25,9 @@ Gradients are analytic: q, q̇, q̈, q⃛ are linear in x through the basis matr
 differentiates through d/dt of ∂τ/∂x along the sample grid (second order); distances
 through the witness points (:mod:`mpd_pin.collision.distance`). The solver is scipy's
 SLSQP (design §9g says why). The result is certified by the Bernstein boxes of §9c and
-simulated with the RK4 of §3; it is kept only when certified, within the limits and
-cheaper *simulated* than its seed.
+simulated with the RK4 of §3; it is kept only when certified, within the limits (its
+simulated joint positions within each joint's range too) and cheaper *simulated* than its
+seed.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ from ..dynamics.motor import Drive
 from ..dynamics.supply import supply_energy
 from .certify import first_failure
 from .nonstop import fastest_by_velocity, simulate_nonstop, snap_steps
-from .outcome import MotionEnergy, check_waypoints, limit_reasons
+from .outcome import MotionEnergy, check_waypoints, limit_reasons, range_reason
 from .problem import OptimizeSettings, Problem, fit_curve, spline_curve
 from .screen import joint_limits
 from .spline import ViaSpline, unit_knots, via_spline
@@ -487,6 +488,9 @@ def _price(drive: Drive, curve: ViaSpline, T: float, options) -> MotionEnergy:
     eff = float(np.max(peak[0] / elim))
     e = float(np.max(np.abs(err[0])))
     reasons = limit_reasons(options, eff, e, vel, "the goal")
+    outside = range_reason(drive.arm, rec.q[:, 0])
+    if outside:
+        reasons.append(outside)
     total = float(supply_energy(drive.supply, E[0], B[0]))
     W = curve.waypoints
     m = W.shape[0] - 1

@@ -14,7 +14,7 @@ from ..dynamics.supply import PER_JOINT, Supply, energy_by_supply
 from .spline import ViaSpline
 
 __all__ = ["EXECUTIONS", "PRICINGS", "MotionEnergy", "waypoint_array", "check_waypoints",
-           "limit_reasons"]
+           "limit_reasons", "range_reason"]
 
 #: Values of ``execution``; the first is the default.
 EXECUTIONS = ("auto", "stop", "nonstop")
@@ -154,6 +154,24 @@ def check_waypoints(drive: Drive, waypoints: Any) -> np.ndarray:
     if W.shape[0] < 2:
         raise ValueError("waypoints must hold at least two distinct configurations")
     return W
+
+
+def range_reason(arm: Any, q: np.ndarray) -> str:
+    """Why the joint positions ``q`` (n, nq) rad leave the arm's range, "" when they do not:
+    the joint that passes a limit furthest, which limit and by how much (rad). Continuous
+    joints have no range (docs/design.md §1d)."""
+    lo = np.asarray(arm.lower_limits, float)
+    hi = np.asarray(arm.upper_limits, float)
+    q = np.asarray(q, float)
+    below = np.max(lo - q, axis=0, initial=-np.inf)
+    above = np.max(q - hi, axis=0, initial=-np.inf)
+    excess = np.where(arm.continuous_mask, -np.inf, np.maximum(below, above))
+    if not (excess > 0.0).any():
+        return ""
+    k = int(np.argmax(excess))
+    side = "lower" if below[k] >= above[k] else "upper"
+    return (f"joint {arm.joint_names[k]!r} passes its {side} limit by {excess[k]:.3g} rad "
+            "(simulated)")
 
 
 def limit_reasons(options, effort: float, end_error: float, velocity: float, end: str,

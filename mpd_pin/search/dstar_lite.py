@@ -65,6 +65,116 @@ __all__ = ["DStarLite", "MPDStarLite"]
 _INF = math.inf
 
 
+# The two expansions of ComputeShortestPath (optimized D* Lite, Koenig & Likhachev 2002),
+# called by _DStarLiteCore._compute_shortest_path once per expanded node: the "g(u) > rhs(u)"
+# case (_expand_over) and the "else" case, g(u) < rhs(u) (_expand_under). ``ctx`` is the
+# tuple that method builds once per call (the live lists, start, km, the heuristic and its
+# cache, the bound _recompute_rhs / _update_vertex); module-level functions unpacking one
+# tuple cost less per call than methods reading a dozen attributes of self. Each returns its
+# work as (edge evaluations, queue operations). _update_vertex and _recompute_rhs are inlined
+# with the same expressions in the same order, so the keys and values are bit-identical.
+def _expand_over(u: int, ru: float, rhu: int, ctx: tuple) -> tuple[int, int]:
+    """Over-consistent ``u`` (rhs < g): g(u) = rhs(u), then every predecessor's rhs is
+    relaxed through ``u`` and stored with ``u`` as its pointer (000 Fig. 6) where better."""
+    (pptr, psrc, pcost, _, _, _, g, gh, rhs, rh, ptr, qkey, heap, start, km, hc, hfun,
+     recompute, update_vertex) = ctx  # fmt: skip
+    a, b = pptr[u], pptr[u + 1]
+    n_ev = b - a
+    n_q = 0
+    g[u] = ru
+    gh[u] = rhu
+    nh = rhu + 1
+    for j in range(a, b):
+        s = psrc[j]
+        t = pcost[j] + ru
+        r = rhs[s]
+        if t < r or (t == r and nh < rh[s]):
+            # better support through u (the goal's (0, 0) is never beaten)
+            rhs[s] = t
+            rh[s] = nh
+            ptr[s] = u
+            gsv = g[s]
+            ghs = gh[s]
+            if gsv == t and ghs == nh:
+                qkey[s] = None
+                continue
+            if t < gsv or (t == gsv and nh < ghs):
+                mc, mh = t, nh
+            else:
+                mc, mh = gsv, ghs
+            if hc is None:
+                k = (mc + km, mh, mc, s)
+            else:
+                hv = hc[s]
+                if hv is None:
+                    hv = hc[s] = hfun(start, s)
+                k = (mc + hv + km, mh, mc, s)
+            qkey[s] = k
+            heappush(heap, k)
+            n_q += 1
+        elif t == r and ptr[s] == u and nh != rh[s]:
+            # same cost, more hops through u (float absorption): re-derive
+            n_ev += recompute(s)
+            n_q += update_vertex(s)
+    return n_ev, n_q
+
+
+def _expand_under(u: int, ctx: tuple) -> tuple[int, int]:
+    """Under-consistent ``u`` (g < rhs): g(u) = inf, then the rhs of every predecessor
+    whose pointer is ``u`` is recomputed over its successors, and ``u`` is re-queued."""
+    (pptr, psrc, _, sptr, sdst, scost, g, gh, rhs, rh, ptr, qkey, heap, start, km, hc, hfun,
+     _, update_vertex) = ctx  # fmt: skip
+    a, b = pptr[u], pptr[u + 1]
+    n_ev = b - a
+    n_q = 0
+    g[u] = _INF
+    gh[u] = 0
+    for s in psrc[a:b]:
+        if ptr[s] != u:
+            continue
+        # rhs(s) was supported by u's old g: _recompute_rhs(s) inlined
+        a2, b2 = sptr[s], sptr[s + 1]
+        n_ev += b2 - a2
+        best = _INF
+        bh = 0
+        bp = -1
+        for j in range(a2, b2):
+            v = sdst[j]
+            t = scost[j] + g[v]
+            if t < best:
+                best = t
+                bh = gh[v] + 1
+                bp = v
+            elif t == best and bp >= 0 and gh[v] + 1 < bh:
+                bh = gh[v] + 1
+                bp = v
+        rhs[s] = best
+        rh[s] = bh
+        ptr[s] = bp
+        # _update_vertex(s) inlined
+        gsv = g[s]
+        ghs = gh[s]
+        if gsv == best and ghs == bh:
+            qkey[s] = None
+            continue
+        if best < gsv or (best == gsv and bh < ghs):
+            mc, mh = best, bh
+        else:
+            mc, mh = gsv, ghs
+        if hc is None:
+            k = (mc + km, mh, mc, s)
+        else:
+            hv = hc[s]
+            if hv is None:
+                hv = hc[s] = hfun(start, s)
+            k = (mc + hv + km, mh, mc, s)
+        qkey[s] = k
+        heappush(heap, k)
+        n_q += 1
+    n_q += update_vertex(u)
+    return n_ev, n_q
+
+
 class _DStarLiteCore(Planner):
     """Incremental search from the goal shared by :class:`MPDStarLite` and :class:`DStarLite`."""
 
@@ -164,18 +274,23 @@ class _DStarLiteCore(Planner):
         self._s_last = self._start
 
     def _compute_shortest_path(self) -> None:
-        """ComputeShortestPath of optimized D* Lite, with pointer bookkeeping."""
-        gr = self.graph
-        pptr, psrc, pcost = gr.predecessor_view
-        sptr, sdst, scost = self._sptr, self._sdst, self._scost
-        g, gh, rhs, rh, ptr = self._g, self._gh, self._rhs, self._rh, self._ptr
+        """ComputeShortestPath of optimized D* Lite, with pointer bookkeeping.
+
+        This is the queue loop (stale entries, termination, reinsertion of a grown key);
+        an expanded node is handled by :func:`_expand_over` or :func:`_expand_under`."""
+        g, gh, rhs, rh = self._g, self._gh, self._rhs, self._rh
         qkey, heap = self._qkey, self._heap
         start = self._start
         km = self._km
         hc = self._hcache
         hfun = self.heuristic
-        recompute = self._recompute_rhs
-        update_vertex = self._update_vertex
+        pptr, psrc, pcost = self.graph.predecessor_view
+        sptr, sdst, scost, ptr = self._sptr, self._sdst, self._scost, self._ptr
+        # what the two expansions read, in the order they unpack it, bound once per call
+        # (km and the heuristic cache do not change during a call)
+        ctx = (pptr, psrc, pcost, sptr, sdst, scost, g, gh, rhs, rh, ptr, qkey, heap, start, km,
+               hc, hfun, self._recompute_rhs, self._update_vertex)  # fmt: skip
+        expand_over, expand_under = _expand_over, _expand_under
         n_exp = n_ev = n_q = 0
         while True:
             # drop stale heap entries (lazy deletion)
@@ -215,90 +330,12 @@ class _DStarLiteCore(Planner):
             n_q += 1
             qkey[u] = None
             n_exp += 1
-            a, b = pptr[u], pptr[u + 1]
-            n_ev += b - a
             if over:
-                g[u] = ru
-                gh[u] = rhu
-                nh = rhu + 1
-                for j in range(a, b):
-                    s = psrc[j]
-                    t = pcost[j] + ru
-                    r = rhs[s]
-                    if t < r or (t == r and nh < rh[s]):
-                        # better support through u (the goal's (0, 0) is never beaten)
-                        rhs[s] = t
-                        rh[s] = nh
-                        ptr[s] = u
-                        gsv = g[s]
-                        ghs = gh[s]
-                        if gsv == t and ghs == nh:
-                            qkey[s] = None
-                            continue
-                        if t < gsv or (t == gsv and nh < ghs):
-                            mc, mh = t, nh
-                        else:
-                            mc, mh = gsv, ghs
-                        if hc is None:
-                            k = (mc + km, mh, mc, s)
-                        else:
-                            hv = hc[s]
-                            if hv is None:
-                                hv = hc[s] = hfun(start, s)
-                            k = (mc + hv + km, mh, mc, s)
-                        qkey[s] = k
-                        heappush(heap, k)
-                        n_q += 1
-                    elif t == r and ptr[s] == u and nh != rh[s]:
-                        # same cost, more hops through u (float absorption): re-derive
-                        n_ev += recompute(s)
-                        n_q += update_vertex(s)
+                ev, q = expand_over(u, ru, rhu, ctx)
             else:
-                g[u] = _INF
-                gh[u] = 0
-                for s in psrc[a:b]:
-                    if ptr[s] != u:
-                        continue
-                    # rhs(s) was supported by u's old g: _recompute_rhs(s) inlined
-                    a2, b2 = sptr[s], sptr[s + 1]
-                    n_ev += b2 - a2
-                    best = _INF
-                    bh = 0
-                    bp = -1
-                    for j in range(a2, b2):
-                        v = sdst[j]
-                        t = scost[j] + g[v]
-                        if t < best:
-                            best = t
-                            bh = gh[v] + 1
-                            bp = v
-                        elif t == best and bp >= 0 and gh[v] + 1 < bh:
-                            bh = gh[v] + 1
-                            bp = v
-                    rhs[s] = best
-                    rh[s] = bh
-                    ptr[s] = bp
-                    # _update_vertex(s) inlined
-                    gsv = g[s]
-                    ghs = gh[s]
-                    if gsv == best and ghs == bh:
-                        qkey[s] = None
-                        continue
-                    if best < gsv or (best == gsv and bh < ghs):
-                        mc, mh = best, bh
-                    else:
-                        mc, mh = gsv, ghs
-                    if hc is None:
-                        k = (mc + km, mh, mc, s)
-                    else:
-                        hv = hc[s]
-                        if hv is None:
-                            hv = hc[s] = hfun(start, s)
-                        k = (mc + hv + km, mh, mc, s)
-                    qkey[s] = k
-                    heappush(heap, k)
-                    n_q += 1
-                n_q += update_vertex(u)
+                ev, q = expand_under(u, ctx)
+            n_ev += ev
+            n_q += q
         self._add_work(n_exp, n_ev, n_q)
 
     # -------------------------------------------------------------- interface

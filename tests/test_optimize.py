@@ -761,3 +761,7 @@ def test_an_optimum_whose_simulation_leaves_the_joint_range_is_not_kept(quicksta
     assert float(hit.group(1)) == pytest.approx(1e-4, rel=1e-2)
     judged = O._judge(outside, None, {}, m.curve)
     assert judged.motion is None and f"joint '{name}' passes" in judged.record["why"]
+    # round-off is no limit passed: 1e-7 rad past it (below RANGE_TOLERANCE) is feasible
+    model.upperPositionLimit[k] = peak - 1e-7
+    drive = replace(scn.drive(), arm=replace(scn.arm, model=model))
+    assert O._price(drive, m.curve, m.duration, scn.options).feasible

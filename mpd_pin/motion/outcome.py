@@ -156,17 +156,24 @@ def check_waypoints(drive: Drive, waypoints: Any) -> np.ndarray:
     return W
 
 
+#: How far (rad) a simulated motion may pass a joint limit before :func:`range_reason`
+#: names it: round-off of the tracking simulation (a Panda optimum along its limit was
+#: simulated 7e-9 rad past it), far below any encoder's resolution.
+RANGE_TOLERANCE = 1e-6
+
+
 def range_reason(arm: Any, q: np.ndarray) -> str:
-    """Why the joint positions ``q`` (n, nq) rad leave the arm's range, "" when they do not:
-    the joint that passes a limit furthest, which limit and by how much (rad). Continuous
-    joints have no range (docs/design.md §1d)."""
+    """Why the joint positions ``q`` (n, nq) rad leave the arm's range by more than
+    :data:`RANGE_TOLERANCE`, "" when they do not: the joint that passes a limit furthest,
+    which limit and by how much (rad). Continuous joints have no range (docs/design.md
+    §1d)."""
     lo = np.asarray(arm.lower_limits, float)
     hi = np.asarray(arm.upper_limits, float)
     q = np.asarray(q, float)
     below = np.max(lo - q, axis=0, initial=-np.inf)
     above = np.max(q - hi, axis=0, initial=-np.inf)
     excess = np.where(arm.continuous_mask, -np.inf, np.maximum(below, above))
-    if not (excess > 0.0).any():
+    if not (excess > RANGE_TOLERANCE).any():
         return ""
     k = int(np.argmax(excess))
     side = "lower" if below[k] >= above[k] else "upper"

@@ -231,8 +231,9 @@ def integrate_tables(
     peak_i = np.abs(X[2])
     rec = None
     if record:
-        rec = [np.empty((n_max + 1, K, nq)) for _ in range(6)]
-        rec.append(np.empty((n_max + 1, K, 2)))
+        # state rows q, q̇, i, E⁺, E in one block, the voltage, the bus's B⁺ (column 0)
+        rec = [np.empty((n_max + 1, 5, K, nq)), np.empty((n_max + 1, K, nq)),
+               np.empty((n_max + 1, K))]
     result = [np.empty((K, nq)) for _ in range(5)] + [np.empty((K, 2))]
     ending = {int(n): np.flatnonzero(N == n) for n in np.unique(N)}
     for n in range(n_max):
@@ -398,7 +399,10 @@ def _finish(result: list[np.ndarray], rec: list[np.ndarray] | None, torque_per_a
     if not (np.all(np.isfinite(result[0])) and np.all(np.isfinite(result[2]))):
         raise ValueError("integration diverged on some edges; reduce dt or the gains")
     if rec is not None:
-        return tuple(result), TrackedSeries(*rec)
+        state, volts, b_plus = rec
+        q, v, i, e_plus, e_net = (state[:, r] for r in range(5))
+        return tuple(result), TrackedSeries(q, v, i, volts, e_plus, e_net,
+                                            _bus_pair(b_plus, e_net))
     return tuple(result)
 
 
@@ -413,9 +417,8 @@ def _bus_pair(b_plus: np.ndarray, net: np.ndarray) -> np.ndarray:
 def _record(rec: list[np.ndarray], n: int, X: np.ndarray, V: np.ndarray) -> None:
     """Store sample n: the state of X before step n's update and the voltage of its first
     stage (V at the sample, as in :func:`~mpd_pin.dynamics.simulate.simulate_edge`)."""
-    rec[0][n], rec[1][n], rec[2][n] = X[0], X[1], X[2]
-    rec[3][n] = V
-    rec[4][n], rec[5][n] = X[3], X[4]
-    rec[6][n] = _bus_pair(X[5][:, 0], X[4])
+    rec[0][n] = X[:5]
+    rec[1][n] = V
+    rec[2][n] = X[5][:, 0]  # [B⁺, B⁻] of every sample after the loop (_finish), at once
 
 

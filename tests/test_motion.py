@@ -299,6 +299,77 @@ def test_nonstop_curve_certificate_keeps_a_stop_where_the_curve_collides():
     assert s["q"].shape[0] > 1
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_range_failure_agrees_with_dense_sampling(seed):
+    """``range_failure`` against brute force: via splines through random waypoints near a
+    joint range's ends (Panda-like: [-3.07, -0.07] and [-0.02, 3.75] rad). None exactly
+    where 200,000 samples stay within the range (beyond 1e-6 rad of its tolerance either
+    way), and where it names a time the curve is outside there. Both outcomes occur (about
+    a third of these curves stay within)."""
+    from mpd_pin.motion.certify import range_failure
+    from mpd_pin.motion.outcome import RANGE_TOLERANCE
+
+    rng = np.random.default_rng(seed)
+    lo, hi = np.array([-3.0718, -0.0175]), np.array([-0.0698, 3.7525])
+    seen = {True: 0, False: 0}
+    for _ in range(60):
+        W = rng.uniform(lo, hi, (5, 2))
+        k, j = rng.integers(1, 4), rng.integers(0, 2)  # one via point near an upper limit
+        W[k, j] = hi[j] - rng.uniform(0.0, 0.3)
+        vs = via_spline(W, unit_knots(W, np.array([2.0, 2.5])))
+        q = vs.spline(np.linspace(0.0, vs.unit_duration, 200_000))
+        excess = float(np.max(np.maximum(q - hi, lo - q)))
+        if abs(excess - RANGE_TOLERANCE) < 1e-6:
+            continue  # too close to the tolerance for the samples to judge
+        t = range_failure(vs, lo, hi)
+        assert (t is not None) == (excess > RANGE_TOLERANCE), (excess, t)
+        if t is not None:
+            qt = vs.spline(np.array([t]))[0]
+            assert np.max(np.maximum(qt - hi, lo - qt)) > RANGE_TOLERANCE
+        seen[t is None] += 1
+    assert seen[True] >= 5 and seen[False] >= 5, seen
+
+
+def test_nonstop_pieces_keep_within_the_joint_range():
+    """Waypoints within a Panda's range whose one non-stop curve swings past a joint limit
+    (found by brute force: dense samples of the spline): priced non-stop, the motion keeps
+    a stop where it would, and every piece's curve stays within the range (20,000 samples);
+    so does the simulated series."""
+    scn = load_scenario("panda")
+    arm = scn.arm
+    drive = scn.drive()
+    lo, hi = arm.model.lowerPositionLimit.copy(), arm.model.upperPositionLimit.copy()
+    vlim = arm.model.velocityLimit
+    rng = np.random.default_rng(1)
+    W = None
+    for _ in range(2000):
+        cand = rng.uniform(lo, hi, (4, arm.nq))
+        cand[1, 3] = hi[3] - 0.01  # the elbow near its limit, between two far waypoints
+        vs = via_spline(cand, unit_knots(cand, vlim))
+        q = vs.spline(np.linspace(0.0, vs.unit_duration, 20_000))
+        if np.max(np.maximum(q - hi, lo - q)) > 0.05:
+            W = cand
+            break
+    assert W is not None
+    me = trajectory_energy(drive, W, "nonstop", options=scn.options, checker=None)
+    assert me.stops >= 1
+    for a, b in me.pieces:
+        vs = via_spline(W[a:b + 1], unit_knots(W[a:b + 1], vlim))
+        q = vs.spline(np.linspace(0.0, vs.unit_duration, 20_000))
+        assert np.max(np.maximum(q - hi, lo - q)) <= 1e-6
+    s = motion_series(drive, me, scn.options.dt)
+    assert np.max(np.maximum(s["q"] - hi, lo - s["q"])) <= 1e-3  # tracking error only
+    # the same curve as a timed trajectory (its own knot times, slowed 3×) is refused,
+    # naming the joint the dense samples find furthest past its limit
+    vs = via_spline(W, unit_knots(W, vlim))
+    timed = trajectory_energy(drive, W, "timed", times=3.0 * vs.knots, options=scn.options)
+    assert not timed.feasible
+    q = vs.spline(np.linspace(0.0, vs.unit_duration, 20_000))
+    worst = arm.joint_names[int(np.argmax(np.maximum(q - hi, lo - q).max(axis=0)))]
+    assert "the curve leaves the joint range at t = " in timed.reason, timed.reason
+    assert f"joint {worst!r} passes its" in timed.reason, timed.reason
+
+
 # ----------------------------------------------------------------------------- shortcut
 @pytest.mark.parametrize("seed", range(6))
 def test_capped_dp_matches_networkx_on_a_layered_graph(seed):

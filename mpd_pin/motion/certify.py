@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from .outcome import RANGE_TOLERANCE
 from .spline import ViaSpline, arc_boxes, pieces, unit_knots, via_spline
 
-__all__ = ["first_failure", "certified_pieces"]
+__all__ = ["first_failure", "range_failure", "certified_pieces"]
 
 
 def _fit(checker, vs: ViaSpline, a: np.ndarray, b: np.ndarray, h: float):
@@ -52,18 +53,53 @@ def first_failure(checker, vs: ViaSpline, resolution: float, min_step: float = 1
     return None
 
 
-def certified_pieces(W: np.ndarray, checker, resolution: float, vlim: np.ndarray
-                      ) -> list[tuple[int, int]]:
-    """Split the waypoints into pieces whose non-stop curves are certified free: a piece
-    whose curve fails gets a stop at the interior via point nearest the failure."""
+def range_failure(vs: ViaSpline, lo: np.ndarray, hi: np.ndarray,
+                  tol: float = RANGE_TOLERANCE, min_step: float = 1e-9) -> float | None:
+    """The unit time (s) of a point where the curve passes the joint range [lo, hi] (rad,
+    (nq,); ±inf: none) by more than ``tol`` (rad), None when it stays within: the
+    Bernstein boxes of its pieces, kept while a box reaches past a limit (the curve at the
+    ends and middle of such an arc tested), bisected down to ``min_step`` (then taken as
+    passing). The range of a curve through waypoints within it: a via spline swings past
+    its waypoints (a Panda bench query's, by 4.2 rad)."""
+    a, b = pieces(vs)
+    lo_t, hi_t = np.asarray(lo, float) - tol, np.asarray(hi, float) + tol
+    while a.size:
+        C, D = arc_boxes(vs, a, b)
+        reach = ((C - D) < lo_t) | ((C + D) > hi_t)
+        keep = reach.any(axis=1)
+        if not keep.any():
+            return None
+        a, b = a[keep], b[keep]
+        t = np.concatenate([a, 0.5 * (a + b), b])
+        q = vs.spline(t)
+        out = ((q < lo_t) | (q > hi_t)).any(axis=1)
+        if out.any():
+            return float(t[out].min())
+        if float(np.max(b - a)) < min_step:
+            return float(a[0])
+        mid = 0.5 * (a + b)
+        a, b = np.concatenate([a, mid]), np.concatenate([mid, b])
+    return None
+
+
+def certified_pieces(W: np.ndarray, checker, resolution: float, vlim: np.ndarray,
+                     limits: tuple[np.ndarray, np.ndarray] | None = None
+                     ) -> list[tuple[int, int]]:
+    """Split the waypoints into pieces whose non-stop curves are certified free (and, with
+    ``limits`` = (lower, upper) rad, :func:`~mpd_pin.motion.outcome.joint_range`, within
+    the joint range, :func:`range_failure`): a piece whose curve fails gets a stop at the
+    interior via point nearest the failure. A piece of one segment is a straight line
+    between its waypoints, free and within the range as they are."""
     todo, done = [(0, W.shape[0] - 1)], []
     while todo:
         i, j = todo.pop()
-        if j - i < 2 or checker is None:
+        if j - i < 2 or (checker is None and limits is None):
             done.append((i, j))
             continue
         vs = via_spline(W[i : j + 1], unit_knots(W[i : j + 1], vlim))
-        fail = first_failure(checker, vs, resolution)
+        fail = None if checker is None else first_failure(checker, vs, resolution)
+        if fail is None and limits is not None:
+            fail = range_failure(vs, *limits)
         if fail is None:
             done.append((i, j))
             continue

@@ -36,6 +36,7 @@ from .outcome import (
     PRICINGS,
     MotionEnergy,
     check_waypoints,
+    joint_range,
     limit_reasons,
     waypoint_array,
 )
@@ -324,7 +325,8 @@ def _nonstop(drive: Drive, W: np.ndarray, dt: float, options, checker, max_durat
     if stop is not None and stop.colliding:
         parts = [(0, W.shape[0] - 1)]  # the polyline itself collides: nothing to certify
     else:
-        parts = certified_pieces(W, checker, options.resolution, vlim)
+        parts = certified_pieces(W, checker, options.resolution, vlim,
+                                 limits=joint_range(drive.arm))
     energy = np.zeros(drive.nq)
     bus = np.zeros(2)
     durations, reasons = [], []

@@ -14,7 +14,7 @@ from ..dynamics.supply import PER_JOINT, Supply, energy_by_supply
 from .spline import ViaSpline
 
 __all__ = ["EXECUTIONS", "PRICINGS", "MotionEnergy", "waypoint_array", "check_waypoints",
-           "limit_reasons", "range_reason"]
+           "limit_reasons", "joint_range", "range_reason", "RANGE_TOLERANCE"]
 
 #: Values of ``execution``; the first is the default.
 EXECUTIONS = ("auto", "stop", "nonstop")
@@ -162,23 +162,30 @@ def check_waypoints(drive: Drive, waypoints: Any) -> np.ndarray:
 RANGE_TOLERANCE = 1e-6
 
 
-def range_reason(arm: Any, q: np.ndarray) -> str:
-    """Why the joint positions ``q`` (n, nq) rad leave the arm's range by more than
-    :data:`RANGE_TOLERANCE`, "" when they do not: the joint that passes a limit furthest,
-    which limit and by how much (rad). Continuous joints have no range (docs/design.md
-    §1d)."""
-    lo = np.asarray(arm.lower_limits, float)
-    hi = np.asarray(arm.upper_limits, float)
+def joint_range(arm: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Each joint's range (lower, upper), (nq,) rad or m: the URDF limits, ±inf for a
+    continuous joint, which has none (docs/design.md §1d)."""
+    cont = np.asarray(arm.continuous_mask, dtype=bool)
+    lo = np.where(cont, -np.inf, np.asarray(arm.lower_limits, float))
+    hi = np.where(cont, np.inf, np.asarray(arm.upper_limits, float))
+    return lo, hi
+
+
+def range_reason(arm: Any, q: np.ndarray, what: str = "simulated") -> str:
+    """Why the joint positions ``q`` (n, nq) rad leave the arm's range (:func:`joint_range`)
+    by more than :data:`RANGE_TOLERANCE`, "" when they do not: the joint that passes a
+    limit furthest, which limit and by how much (rad), and ``what`` ``q`` is."""
+    lo, hi = joint_range(arm)
     q = np.asarray(q, float)
     below = np.max(lo - q, axis=0, initial=-np.inf)
     above = np.max(q - hi, axis=0, initial=-np.inf)
-    excess = np.where(arm.continuous_mask, -np.inf, np.maximum(below, above))
+    excess = np.maximum(below, above)
     if not (excess > RANGE_TOLERANCE).any():
         return ""
     k = int(np.argmax(excess))
     side = "lower" if below[k] >= above[k] else "upper"
     return (f"joint {arm.joint_names[k]!r} passes its {side} limit by {excess[k]:.3g} rad "
-            "(simulated)")
+            f"({what})")
 
 
 def limit_reasons(options, effort: float, end_error: float, velocity: float, end: str,

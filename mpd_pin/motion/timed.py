@@ -32,9 +32,9 @@ import numpy as np
 from ..dynamics.motor import Drive
 from ..dynamics.simulate import step_count
 from ..dynamics.supply import supply_energy
-from .certify import first_failure
+from .certify import first_failure, range_failure
 from .nonstop import simulate_nonstop
-from .outcome import MotionEnergy, limit_reasons, waypoint_array
+from .outcome import MotionEnergy, joint_range, limit_reasons, range_reason, waypoint_array
 from .screen import joint_limits
 from .spline import ViaSpline, via_spline
 
@@ -136,6 +136,12 @@ def timed_energy(drive: Drive, waypoints: Any, times: Any, *, dt: float, options
             k = int(np.clip(np.searchsorted(t, fail, side="right") - 1, 0, m - 1))
             reasons.append(f"the curve is not collision-free at t = {fail:.3f} s (between "
                            f"waypoints {k + 1} and {k + 2}, counting from 1)")
+    out = range_failure(vs, *joint_range(drive.arm))
+    if out is not None:
+        k = int(np.clip(np.searchsorted(t, out, side="right") - 1, 0, m - 1))
+        reasons.append(f"the curve leaves the joint range at t = {out:.3f} s (between "
+                       f"waypoints {k + 1} and {k + 2}, counting from 1): "
+                       f"{range_reason(drive.arm, vs.spline(np.array([out])), 'the curve')}")
     energy = E[0].copy()
     bus = B[0].copy()
     total = float(supply_energy(drive.supply, energy, bus))

@@ -72,7 +72,8 @@ def test_no_path_names_start_and_goal_and_what_to_try(capsys, tmp_path):
     assert "node 0" not in err[0] and "node 1" not in err[0]
     assert "[roadmap] num_nodes = 150, k = 10, seed = 5" in err[0]
     assert err[0].endswith("try more nodes or neighbours ([roadmap] num_nodes, k) or another "
-                           "seed ([roadmap] seed, or --seed)")
+                           "seed ([roadmap] seed, or --seed; in Python the same fields of "
+                           "RoadmapOptions)")
 
 
 def _no_path(text, *, src=(0, 2, 1, 2), dst=(2, 0, 2, 1), revealed=(), hazard=None,
@@ -91,7 +92,8 @@ def _no_path(text, *, src=(0, 2, 1, 2), dst=(2, 0, 2, 1), revealed=(), hazard=No
 
 def test_no_path_message_in_other_situations():
     tail = ("([roadmap] num_nodes = 40, k = 7, seed = 3); try more nodes or neighbours "
-            "([roadmap] num_nodes, k) or another seed ([roadmap] seed, or --seed)")
+            "([roadmap] num_nodes, k) or another seed ([roadmap] seed, or --seed; in Python "
+            "the same fields of RoadmapOptions)")
     assert _no_path("no path from node 0 to node 1") == (
         f"no path from the start to the goal: the roadmap's edges do not connect them {tail}")
     assert _no_path("no path from node 0 to node 1", src=(2, 1), dst=(1, 2)) == (

@@ -275,7 +275,8 @@ def no_path_message(text: str, scn: EnergyScenario, setup: Setup) -> str:
     where = f" {' '.join(why)}" if why else ""
     return (f"{head}: the roadmap's edges do not connect them{where} ([roadmap] num_nodes = "
             f"{opts.num_nodes}, k = {opts.k}, seed = {opts.seed}); try more nodes or "
-            "neighbours ([roadmap] num_nodes, k) or another seed ([roadmap] seed, or --seed)")
+            "neighbours ([roadmap] num_nodes, k) or another seed ([roadmap] seed, or --seed; in "
+            "Python the same fields of RoadmapOptions)")
 
 
 def refusal_note(roadmap: Roadmap, tolerance: float, simulated: int | None = None) -> str:

@@ -765,3 +765,59 @@ def test_an_optimum_whose_simulation_leaves_the_joint_range_is_not_kept(quicksta
     model.upperPositionLimit[k] = peak - 1e-7
     drive = replace(scn.drive(), arm=replace(scn.arm, model=model))
     assert O._price(drive, m.curve, m.duration, scn.options).feasible
+
+
+def test_an_optimised_curve_ends_exactly_at_its_first_and_last_control_points():
+    """spline_curve's first and last waypoints are the start and goal to the bit: the
+    clamped spline evaluated there can miss them by an ulp (it did on the built-in Panda
+    run, whose motion then began 3e-16 rad from its start)."""
+    rng = np.random.default_rng(3)
+    missed = 0
+    for _ in range(60):
+        n_c, T = 16, float(rng.uniform(1.0, 6.0))
+        C = rng.uniform(-3.0, 3.0, (n_c, 7))
+        C[:3], C[-3:] = C[0], C[-1]
+        knots = P.clamped_knots(n_c)
+        curve = P.spline_curve(knots, C, T)
+        assert np.array_equal(curve.waypoints[0], C[0])
+        assert np.array_equal(curve.waypoints[-1], C[-1])
+        ends = BSpline(knots * T, C, P.DEGREE)(np.array([0.0, knots[-1] * T]))
+        missed += not (np.array_equal(ends[0], C[0]) and np.array_equal(ends[1], C[-1]))
+    assert missed > 0  # the draws include curves whose evaluation misses an end
+
+
+def test_the_panda_run_starts_and_ends_exactly_at_the_task(panda_plan):
+    scn, _, plan = panda_plan
+    assert np.array_equal(plan.path[0], np.asarray(scn.start, float))
+    assert np.array_equal(plan.path[-1], np.asarray(scn.goal, float))
+    np.testing.assert_array_equal(plan.motion.curve.spline.c[0], plan.path[0])
+
+
+def test_an_optimum_over_the_effort_limit_where_it_had_no_row_is_not_kept(quickstart,
+                                                                           monkeypatch):
+    """Effort rows are chosen at a round's start where |τ_ff| is above half the limit; a
+    sample below that can end above ``effort_fraction`` of the limit. Such an iterate is
+    never the solve's answer, and an optimum over the limit anywhere is solved again, not
+    priced (the built-in Panda's finer solve ended at 0.988 of the limit on a sample
+    without a row, 1.004 × when simulated, and was refused after its simulation)."""
+    scn, checker, plan = quickstart
+    drive = scn.drive()
+    base = plan._parts.motion.refined.by_name[plan.to_dict()["motion"]["optimization"]["seed"]]
+    monkeypatch.setattr(P.Problem, "choose_effort_rows", lambda self, x: 0)  # no rows
+    free = O.optimize_curve(drive, checker, O.seed_curve(drive, base), base.duration,
+                            scn.options, seed_motion=base, stage="certify")
+    assert free.record["certified"] is True
+    prob = P.Problem(drive, None, free.curve.spline.c, base.duration,
+                     O.OptimizeSettings(control_points=free.curve.spline.c.shape[0]))
+    ratio = float(np.max(np.abs(prob.dynamics(prob.x0())["tau"]) / prob.elim))
+    # a limit the free optimum breaks, and that the solves cannot see (no rows)
+    settings = O.OptimizeSettings(effort_fraction=0.9 * ratio)
+    out = O.optimize_curve(drive, checker, O.seed_curve(drive, base), base.duration,
+                           scn.options, seed_motion=base, settings=settings)
+    if out.motion is not None:  # kept: within the limit at every energy sample
+        check = P.Problem(drive, None, out.curve.spline.c, base.duration,
+                          replace(settings, control_points=out.curve.spline.c.shape[0]))
+        assert check.effort_excess(check.x0()) <= O.FEASIBLE
+    else:
+        assert out.record["why"] == ("over the effort limit at energy samples without an "
+                                     "effort row")

@@ -121,7 +121,9 @@ def _solve(prob: Problem, x: np.ndarray, settings: OptimizeSettings,
         def keep(z, cons=cons, inside=True):  # the cheapest iterate within every row so far
             if inside and time.process_time() > deadline:
                 raise StopIteration  # SLSQP stops and returns its current iterate
-            worst = _worst_row(cons, z)
+            # within the effort limit at every sample, not only at the round's rows: a
+            # sample below half the limit at the round's start (no row) can end above it
+            worst = min(_worst_row(cons, z), -prob.effort_excess(z))
             if worst >= -FEASIBLE and prob.energy(z) < best[0]:
                 best[:] = [prob.energy(z), np.array(z, float)]
 
@@ -264,6 +266,11 @@ def _optimize(drive, checker, T, options, settings, seed_motion, distances, C0, 
             rec.update(seconds=time.perf_counter() - w0, cpu_seconds=time.process_time() - c0,
                        margin=settings.margin, screened=True)
             return OptimizedMotion(None, rec, curve)
+        if prob.effort_excess(x) > FEASIBLE:  # over the effort limit where it had no row
+            prob.choose_effort_rows(x)
+            rec["certified"] = False
+            rec["why"] = "over the effort limit at energy samples without an effort row"
+            continue
         fast = 0
         if options.velocity_limits:  # over a limit between the energy samples: rows there
             fast = prob.add_velocity_samples(x)

@@ -109,12 +109,17 @@ def spline_curve(knots: np.ndarray, C: np.ndarray, duration: float) -> ViaSpline
     """The curve of control points ``C`` (n_c, nq) on unit ``knots``, as a
     :class:`~mpd_pin.motion.spline.ViaSpline` of duration ``duration`` (s) at unit stretch:
     its ``waypoints`` are the curve at its breakpoints, so it simulates, certifies and
-    records like every non-stop piece."""
+    records like every non-stop piece. The first and last waypoints are the first and last
+    control points themselves (the start and goal: a clamped spline passes through them;
+    evaluated, the sum of its basis weights can miss them by an ulp)."""
     T = float(duration)
-    spl = BSpline(np.asarray(knots, float) * T, np.asarray(C, float), DEGREE)
+    C = np.asarray(C, float)
+    spl = BSpline(np.asarray(knots, float) * T, C, DEGREE)
     times = np.unique(spl.t)
     times = times[(times >= 0) & (times <= T)]
-    return ViaSpline(spl(times), times, spl, optimised=True)
+    points = spl(times)
+    points[0], points[-1] = C[0], C[-1]
+    return ViaSpline(points, times, spl, optimised=True)
 
 
 def fit_curve(q_of_tau, n_c: int, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
@@ -349,11 +354,18 @@ class Problem:
         return len(rows)
 
     def choose_effort_rows(self, x: np.ndarray) -> int:
-        """Add the (sample, joint) rows where |τ_ff| at ``x`` is above half the limit."""
+        """Add the (sample, joint) rows where |τ_ff| at ``x`` is above half the limit (or
+        above ``effort_fraction`` of it, when that is less than half)."""
         tau = self.dynamics(x)["tau"]
-        self.effort_rows, n = self._grow(self.effort_rows,
-                                         np.argwhere(np.abs(tau) > 0.5 * self.elim[None, :]))
+        near = min(0.5, float(self.s.effort_fraction)) * self.elim[None, :]
+        self.effort_rows, n = self._grow(self.effort_rows, np.argwhere(np.abs(tau) > near))
         return n
+
+    def effort_excess(self, x: np.ndarray) -> float:
+        """max over every energy sample and joint of |τ_ff| − ``effort_fraction`` · τ_lim
+        (N·m; ≤ 0: within the effort rows wherever they may be chosen)."""
+        tau = self.dynamics(x)["tau"]
+        return float(np.max(np.abs(tau) - self.s.effort_fraction * self.elim[None, :]))
 
     def effort(self, x: np.ndarray) -> np.ndarray:
         if not len(self.effort_rows):

@@ -109,17 +109,12 @@ def spline_curve(knots: np.ndarray, C: np.ndarray, duration: float) -> ViaSpline
     """The curve of control points ``C`` (n_c, nq) on unit ``knots``, as a
     :class:`~mpd_pin.motion.spline.ViaSpline` of duration ``duration`` (s) at unit stretch:
     its ``waypoints`` are the curve at its breakpoints, so it simulates, certifies and
-    records like every non-stop piece. The first and last waypoints are the first and last
-    control points themselves (the start and goal: a clamped spline passes through them;
-    evaluated, the sum of its basis weights can miss them by an ulp)."""
+    records like every non-stop piece."""
     T = float(duration)
-    C = np.asarray(C, float)
-    spl = BSpline(np.asarray(knots, float) * T, C, DEGREE)
+    spl = BSpline(np.asarray(knots, float) * T, np.asarray(C, float), DEGREE)
     times = np.unique(spl.t)
     times = times[(times >= 0) & (times <= T)]
-    points = spl(times)
-    points[0], points[-1] = C[0], C[-1]
-    return ViaSpline(points, times, spl, optimised=True)
+    return ViaSpline(spl(times), times, spl, optimised=True)
 
 
 def fit_curve(q_of_tau, n_c: int, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:

@@ -735,14 +735,42 @@ def test_the_hull_screen_gives_the_meshes_answers(monkeypatch):
     for q0, q1 in zip(Q0[got], Q1[got], strict=True):
         assert on.is_free_batch(q0 + t[:, None] * (q1 - q0)).all()
     assert 0 < asked < screened  # the hulls cleared queries on their own
-    # boxes (the curves' certificate) alike
+    # boxes (the curves' certificate): on a level whose margins grow by more than
+    # HULL_ONLY_ABOVE the hulls answer alone (never the meshes; a box they certify, the
+    # meshes do too; the centre's exact check is the same); below it, the meshes' answers
     C = Q[120:]
-    Delta = np.full(C.shape, 0.02)
-    h = float(on.box_sizes(C, Delta).max())
-    clear, hit = on.boxes_clear(C, Delta, h)
-    assert len(C) >= 20 and 0 < clear.sum() < len(C)
-    for a, b in zip((clear, hit), off.boxes_clear(C, Delta, h), strict=True):
-        np.testing.assert_array_equal(a, b)
+    assert len(C) >= 20
+    for size, coarse in ((0.02, True), (0.002, False)):
+        Delta = np.full(C.shape, size)
+        h = float(on.box_sizes(C, Delta).max())
+        rows.clear()
+        monkeypatch.setattr(cm, "batch_collides", counted)
+        clear, hit = on.boxes_clear(C, Delta, h)
+        monkeypatch.undo()
+        level_rows = [r for r in rows if r[2] == len(C)]  # the level query (all centres)
+        want_clear, want_hit = off.boxes_clear(C, Delta, h)
+        np.testing.assert_array_equal(hit, want_hit)
+        assert not (clear & ~want_clear).any()
+        assert 0 < clear.sum() < len(C)
+        if coarse:
+            assert [gm for _, gm, _ in level_rows] == [hulls]
+            assert clear.sum() < want_clear.sum()  # the hulls alone are more cautious
+        else:
+            assert [gm for _, gm, _ in level_rows] == [meshes]  # screened on the hulls
+            np.testing.assert_array_equal(clear, want_clear)
+    # curves certify to the same answer and the same first failure (bisection only
+    # goes deeper where the hulls alone could not certify what the meshes do)
+    from mpd_pin.motion.certify import first_failure
+    from mpd_pin.motion.spline import unit_knots, via_spline
+
+    outcomes = set()
+    for k in range(12):
+        W = np.vstack([Q[k], Q[k + 12], Q[k + 24]])
+        vs = via_spline(W, unit_knots(W, np.ones(arm.nq)))
+        got_t, want_t = first_failure(on, vs, 0.05), first_failure(off, vs, 0.05)
+        assert got_t == want_t
+        outcomes.add(got_t is None)
+    assert outcomes == {True, False}
 
 
 def test_the_hull_screen_follows_a_revealed_obstacle_and_hazard_margins():

@@ -266,8 +266,8 @@ def _optimize(drive, checker, T, options, settings, seed_motion, distances, C0, 
             rec.update(seconds=time.perf_counter() - w0, cpu_seconds=time.process_time() - c0,
                        margin=settings.margin, screened=True)
             return OptimizedMotion(None, rec, curve)
-        if prob.effort_excess(x) > FEASIBLE:  # over the effort limit where it had no row
-            prob.choose_effort_rows(x)
+        if (prob.effort_excess(x) > FEASIBLE and rec["iterations"] < settings.budget
+                and prob.choose_effort_rows(x)):  # over the limit where it had no row
             rec["certified"] = False
             rec["why"] = "over the effort limit at energy samples without an effort row"
             continue
